@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# Installs every Debian package lipmap needs to build, run and test (DESIGN.md section 6).
+# Idempotent: when everything is already present it does nothing and takes well under a second.
+set -euo pipefail
+
+build_packages=(
+  build-essential cmake pkg-config ccache
+  libcgal-dev libgmp-dev libmpfr-dev libboost-dev
+  libeigen3-dev libopenmesh-dev libsuitesparse-dev libopenblas0-pthread
+  nlohmann-json3-dev libcpp-httplib-dev libtinygltf-dev
+  libtbb-dev libspdlog-dev libcli11-dev
+)
+test_packages=(googletest libgtest-dev libgmock-dev bats curl jq)
+
+want=("${build_packages[@]}")
+if [[ "${1:-}" == "--with-tests" ]]; then want+=("${test_packages[@]}"); fi
+
+missing=()
+for p in "${want[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if ((${#missing[@]} == 0)); then exit 0; fi
+
+sudo=""
+if [[ $(id -u) -ne 0 ]]; then sudo="sudo"; fi
+echo "setup: installing ${missing[*]}" >&2
+export DEBIAN_FRONTEND=noninteractive
+$sudo apt-get update -qq
+$sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
