@@ -1,0 +1,29 @@
+// Shor–van Wyk triangulation of a (weakly) self-overlapping polygon with prescribed triangulation angles
+// (paper 3.1, 3.2, App. B). Internal to the classify stage; includes CGAL through plane_angles.h.
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <vector>
+
+#include "engine/cancel.h"
+#include "engine/detail/plane_angles.h"
+#include "engine/geometry.h"
+
+namespace lipmap::detail {
+
+struct ShorVanWykResult {
+  std::optional<std::vector<Triangle>> triangles;  // indices into the polygon given; none: no triangulation
+  std::size_t table_bytes = 0;
+};
+
+// `polygon` is the closed polygon (vertex k joined to k+1 and the last to the first), interior on the left.
+// With `turns`, the triangulation angle at vertex k must be exactly sweep(k) + 2*pi*turns[k], where sweep(k)
+// in [0, 2*pi) runs counterclockwise from the direction of k+1 to the direction of k-1; the table keeps, per
+// sub-polygon, the set of feasible full-turn pairs at its two ends (DESIGN.md section 3), so no solution is
+// missed when turns > 0. Requires 0 <= turns[k] <= 7. Without `turns`, any triangulation with positive
+// triangles is accepted (the weakly self-overlapping test of section 3.1).
+ShorVanWykResult shor_van_wyk(const std::vector<Pt>& polygon, const std::vector<int>* turns,
+                              const CancelToken* cancel);
+
+}  // namespace lipmap::detail

@@ -1,0 +1,173 @@
+// App. C: clip as many ears as is safe, so the cubic table runs on a small polygon. A uniform grid over
+// the edges makes each ear test look only at nearby edges; it is a filter in front of exact tests only.
+#include "engine/detail/ear_reduction.h"
+
+#include <algorithm>
+#include <cmath>
+#include <deque>
+
+namespace lipmap::detail {
+namespace {
+
+// Edges bucketed by the grid cells their bounding boxes cover. Cells come from one monotone float
+// function of the coordinates, so boxes that overlap exactly always share a cell: no intersection is missed.
+class EdgeGrid {
+public:
+  EdgeGrid(const std::vector<Pt>& p) {
+    double x0 = p[0].x(), x1 = x0, y0 = p[0].y(), y1 = y0;
+    for (const Pt& q : p) {
+      x0 = std::min(x0, q.x()); x1 = std::max(x1, q.x());
+      y0 = std::min(y0, q.y()); y1 = std::max(y1, q.y());
+    }
+    x0_ = x0; y0_ = y0;
+    const double w = x1 - x0, h = y1 - y0, n = static_cast<double>(p.size());
+    double cell = std::sqrt(std::max(w * h, 1e-300) / n);
+    cell = std::max({cell, w / 4096, h / 4096});
+    if (!(cell > 0) || !std::isfinite(cell)) cell = 1;
+    inv_ = 1 / cell;
+    nx_ = std::clamp(static_cast<int>(w * inv_) + 1, 1, 4096);
+    ny_ = std::clamp(static_cast<int>(h * inv_) + 1, 1, 4096);
+    cells_.resize(static_cast<std::size_t>(nx_) * ny_);
+  }
+
+  void insert(const Pt& a, const Pt& b, int from, int to) {
+    visit(a, b, [&](std::vector<Edge>& cell) { cell.push_back({from, to}); return false; });
+  }
+
+  // Calls f(from, to) for every edge whose cells meet the box of the three points, possibly repeatedly.
+  template <class F>
+  bool any_near(const Pt& a, const Pt& b, const Pt& c, F&& f) const {
+    const int cx0 = cx(std::min({a.x(), b.x(), c.x()})), cx1 = cx(std::max({a.x(), b.x(), c.x()}));
+    const int cy0 = cy(std::min({a.y(), b.y(), c.y()})), cy1 = cy(std::max({a.y(), b.y(), c.y()}));
+    for (int y = cy0; y <= cy1; ++y)
+      for (int x = cx0; x <= cx1; ++x)
+        for (const Edge& e : cells_[static_cast<std::size_t>(y) * nx_ + x])
+          if (f(e.from, e.to)) return true;
+    return false;
+  }
+
+private:
+  struct Edge { int from, to; };
+  int cx(double x) const { return std::clamp(static_cast<int>(std::floor((x - x0_) * inv_)), 0, nx_ - 1); }
+  int cy(double y) const { return std::clamp(static_cast<int>(std::floor((y - y0_) * inv_)), 0, ny_ - 1); }
+  template <class F>
+  void visit(const Pt& a, const Pt& b, F&& f) {
+    const int cx0 = cx(std::min(a.x(), b.x())), cx1 = cx(std::max(a.x(), b.x()));
+    const int cy0 = cy(std::min(a.y(), b.y())), cy1 = cy(std::max(a.y(), b.y()));
+    for (int y = cy0; y <= cy1; ++y)
+      for (int x = cx0; x <= cx1; ++x) f(cells_[static_cast<std::size_t>(y) * nx_ + x]);
+  }
+
+  double x0_, y0_, inv_;
+  int nx_, ny_;
+  std::vector<std::vector<Edge>> cells_;
+};
+
+class EarClipper {
+public:
+  EarClipper(const std::vector<Pt>& p, std::vector<int> turns)
+      : p_(p), n_(static_cast<int>(p.size())), turns_(std::move(turns)), next_(n_), prev_(n_),
+        alive_(n_, 1), seen_(n_, -1), grid_(p) {
+    for (int v = 0; v < n_; ++v) {
+      next_[v] = (v + 1) % n_;
+      prev_[v] = (v + n_ - 1) % n_;
+      grid_.insert(p_[v], p_[next_[v]], v, next_[v]);
+    }
+    size_ = n_;
+  }
+
+  EarReduction run(const CancelToken* cancel) {
+    // Eberly-style: clipping an ear changes the ear status of its neighbours, which are queued again.
+    // Removing edges can also free ears elsewhere, hence a few whole passes while they still help.
+    for (int pass = 0; pass < 4 && size_ > 3; ++pass) {
+      const int before = size_;
+      std::deque<int> queue;
+      for (int v = 0; v < n_; ++v)
+        if (alive_[v]) queue.push_back(v);
+      int since_check = 0;
+      while (!queue.empty() && size_ > 3) {
+        if (++since_check == 1024) { check_cancel(cancel); since_check = 0; }
+        const int v = queue.front();
+        queue.pop_front();
+        if (!alive_[v] || !clip_if_ear(v)) continue;
+        queue.push_back(prev_[v]);
+        queue.push_back(next_[v]);
+      }
+      if (size_ == before) break;
+    }
+    EarReduction out;
+    out.ears = std::move(ears_);
+    int start = 0;
+    while (!alive_[start]) ++start;
+    int v = start;
+    do {
+      out.remaining.push_back(v);
+      out.turns.push_back(turns_[v]);
+      v = next_[v];
+    } while (v != start);
+    return out;
+  }
+
+private:
+  // Tests the ear at v and clips it when it is safe (see ear_reduction.h).
+  bool clip_if_ear(int v) {
+    const int a = prev_[v], b = next_[v];
+    if (turns_[v] != 0) return false;
+    const Pt &pa = p_[a], &pv = p_[v], &pb = p_[b];
+    if (orient(pa, pv, pb) <= 0) return false;
+    // Remaining prescribed angles at a and b: the ear takes the sweep v -> b at a and a -> v at b.
+    const int c = next_[b], d = prev_[a];
+    const int turns_a = turns_[a] - extra_turn(pa, pv, pb, p_[d]);
+    const int turns_b = turns_[b] - extra_turn(pb, p_[c], pa, pv);
+    if (turns_a < 0 || (turns_a == 0 && sector(pa, pb, p_[d]) == 0)) return false;
+    if (turns_b < 0 || (turns_b == 0 && sector(pb, p_[c], pa) == 0)) return false;
+    if (!ear_is_empty(a, v, b)) return false;
+
+    ears_.push_back({a, v, b});
+    alive_[v] = 0;
+    next_[a] = b;
+    prev_[b] = a;
+    turns_[a] = turns_a;
+    turns_[b] = turns_b;
+    grid_.insert(pa, pb, a, b);
+    --size_;
+    return true;
+  }
+
+  // The closed triangle (a, v, b) meets the current polygon only in the edges (a, v) and (v, b), and
+  // in the single points a and b of the edges arriving at a and leaving b.
+  bool ear_is_empty(int a, int v, int b) {
+    const Pt &pa = p_[a], &pv = p_[v], &pb = p_[b];
+    const Kernel::Triangle_2 ear(pa, pv, pb);
+    ++query_;
+    const bool blocked = grid_.any_near(pa, pv, pb, [&](int from, int to) {
+      if (!alive_[from] || next_[from] != to) return false;  // stale entry of a clipped edge
+      if (seen_[from] == query_) return false;
+      seen_[from] = query_;
+      if (from == a || from == v) return false;  // the ear's own edges
+      // The edge leaving b must start outside the ear's corner at b (sweep a -> v), the edge arriving
+      // at a outside the corner at a (sweep v -> b); the ear is convex, so it then never comes back.
+      if (from == b) return !sweeps_before(pb, pa, pv, p_[to]);
+      if (to == a) return !sweeps_before(pa, pv, pb, p_[from]);
+      return CGAL::do_intersect(Kernel::Segment_2(p_[from], p_[to]), ear);
+    });
+    return !blocked;
+  }
+
+  const std::vector<Pt>& p_;
+  int n_, size_ = 0, query_ = 0;
+  std::vector<int> turns_, next_, prev_;
+  std::vector<char> alive_;
+  std::vector<int> seen_;
+  EdgeGrid grid_;
+  std::vector<Triangle> ears_;
+};
+
+}  // namespace
+
+EarReduction clip_ears(const std::vector<Pt>& polygon, std::vector<int> turns, const CancelToken* cancel) {
+  EarClipper clipper(polygon, std::move(turns));
+  return clipper.run(cancel);
+}
+
+}  // namespace lipmap::detail

@@ -1,0 +1,232 @@
+// Dynamic program over sub-polygons P_{i,j} = (v_i, ..., v_j), 0 <= i < j < m, closed by the edge j -> i
+// (paper 3.1, Fig. 4, 5). Every triangulation of P has one triangle on the edge (m-1, 0), so the root is
+// P_{0,m-1} and only sub-polygons that do not wrap around are needed: an upper-triangular table.
+//
+// Entry (i, j) holds the set of feasible pairs (r_i, r_j): the full turns of the triangulation angle of
+// P_{i,j} at its two ends, beyond the counterclockwise sweep from v_{i+1} to v_j at i and from v_i to
+// v_{j-1} at j. Gluing P_{i,k} and P_{k,j} along the positive triangle (i, k, j) adds the angles at i, k, j
+// with the exact turn update of App. B; at k the sum must equal the prescribed angle, at the ends it must
+// stay strictly below it (the rest of P still puts at least one triangle there).
+//
+// Speed: candidate splitting vertices k are found by AND-ing two bit rows (entries (i, .) feasible and
+// entries (., j) feasible), so only k with both halves feasible cost orientation tests.
+#include "engine/detail/shor_van_wyk.h"
+
+#include <algorithm>
+#include <cstdint>
+
+namespace lipmap::detail {
+namespace {
+
+// m x m bits, row-major; row r is a bit set over columns.
+class BitMatrix {
+public:
+  explicit BitMatrix(int m) : words_((m + 63) / 64), bits_(static_cast<std::size_t>(m) * words_, 0) {}
+  void set(int r, int c) { bits_[index(r) + c / 64] |= std::uint64_t{1} << (c % 64); }
+  bool get(int r, int c) const { return (bits_[index(r) + c / 64] >> (c % 64)) & 1; }
+  const std::uint64_t* row(int r) const { return bits_.data() + index(r); }
+  std::size_t bytes() const { return bits_.size() * sizeof(std::uint64_t); }
+
+private:
+  std::size_t index(int r) const { return static_cast<std::size_t>(r) * words_; }
+  int words_;
+  std::vector<std::uint64_t> bits_;
+};
+
+using Mask = std::uint64_t;  // bit r_i * width + r_j; width = max turns + 1 <= 8
+
+class Table {
+public:
+  Table(const std::vector<Pt>& p, const std::vector<int>* turns)
+      : p_(p), m_(static_cast<int>(p.size())), turns_(turns), from_(m_), to_(m_) {
+    if (turns_) width_ = *std::max_element(turns_->begin(), turns_->end()) + 1;
+    // With all turns zero every feasible entry holds the single pair (0, 0): the bit rows say it all.
+    if (width_ > 1) masks_.assign(static_cast<std::size_t>(m_) * (m_ - 1) / 2, 0);
+    for (int i = 0; i + 1 < m_; ++i) mark_feasible(i, i + 1);  // 2-gons: nothing to triangulate
+  }
+
+  std::size_t bytes() const { return from_.bytes() + to_.bytes() + masks_.size() * sizeof(Mask); }
+
+  // Fills the table; true when the whole polygon has a triangulation meeting the targets.
+  bool fill(const CancelToken* cancel) {
+    for (int d = 2; d < m_; ++d) {
+      check_cancel(cancel);
+      for (int i = 0; i + d < m_; ++i) {
+        const int j = i + d;
+        if (d == m_ - 1) return solve_root();
+        const Mask mask = turns_ ? constrained_entry(i, j) : free_entry(i, j);
+        if (mask) set_entry(i, j, mask);
+      }
+    }
+    return false;  // m < 3 never reaches here: callers pass polygons with at least 3 vertices
+  }
+
+  // Top-down reconstruction (paper 3.1): triangle (i, k, j), then P_{i,k} and P_{k,j}.
+  std::vector<Triangle> triangles() const {
+    std::vector<Triangle> out;
+    out.reserve(m_ - 2);
+    struct Need { int i, j, ri, rj; };
+    std::vector<Need> stack{{0, m_ - 1, turn(0), turn(m_ - 1)}};
+    while (!stack.empty()) {
+      const Need n = stack.back();
+      stack.pop_back();
+      if (n.j - n.i < 2) continue;
+      Split s{};
+      const bool found = for_each_split(n.i, n.j, [&](int k) { return find_split(n.i, k, n.j, n.ri, n.rj, s); });
+      if (!found) throw InternalError("classify: triangulation table is inconsistent");
+      out.push_back({n.i, s.k, n.j});
+      stack.push_back({n.i, s.k, s.ri_left, s.rk_left});
+      stack.push_back({s.k, n.j, s.rk_right, s.rj_right});
+    }
+    return out;
+  }
+
+private:
+  struct Split { int k, ri_left, rk_left, rk_right, rj_right; };
+  struct Glue { int at_i, at_k, at_j; };
+
+  int turn(int v) const { return turns_ ? (*turns_)[v] : 0; }
+  int prev(int v) const { return v == 0 ? m_ - 1 : v - 1; }
+  int next(int v) const { return v + 1 == m_ ? 0 : v + 1; }
+  Mask bit(int ri, int rj) const { return Mask{1} << (ri * width_ + rj); }
+
+  std::size_t slot(int i, int j) const {  // packed upper triangle, j > i
+    return static_cast<std::size_t>(i) * m_ - static_cast<std::size_t>(i) * (i + 1) / 2 + (j - i - 1);
+  }
+  Mask entry(int i, int j) const {
+    if (j == i + 1) return bit(0, 0);
+    if (masks_.empty()) return from_.get(i, j) ? bit(0, 0) : 0;
+    return masks_[slot(i, j)];
+  }
+  void mark_feasible(int i, int j) { from_.set(i, j); to_.set(j, i); }
+  void set_entry(int i, int j, Mask mask) {
+    mark_feasible(i, j);
+    if (!masks_.empty()) masks_[slot(i, j)] = mask;
+  }
+
+  // Calls f(k) for every k in (i, j) with P_{i,k} and P_{k,j} both feasible, until f returns true.
+  template <class F>
+  bool for_each_split(int i, int j, F&& f) const {
+    const std::uint64_t* a = from_.row(i);
+    const std::uint64_t* b = to_.row(j);
+    const int lo = i + 1, hi = j - 1;
+    for (int w = lo / 64; w <= hi / 64; ++w) {
+      std::uint64_t bits = a[w] & b[w];
+      if (w == lo / 64) bits &= ~std::uint64_t{0} << (lo % 64);
+      if (w == hi / 64 && hi % 64 != 63) bits &= (std::uint64_t{1} << (hi % 64 + 1)) - 1;
+      while (bits) {
+        const int k = w * 64 + __builtin_ctzll(bits);
+        bits &= bits - 1;
+        if (f(k)) return true;
+      }
+    }
+    return false;
+  }
+
+  // Extra full turns created at i, k and j by gluing P_{i,k}, triangle (i,k,j) and P_{k,j} (App. B).
+  Glue glue(int i, int k, int j) const {
+    Glue g;
+    g.at_i = extra_turn(p_[i], p_[i + 1], p_[k], p_[j]);
+    g.at_k = extra_turn(p_[k], p_[k + 1], p_[j], p_[i]) + extra_turn(p_[k], p_[k + 1], p_[i], p_[k - 1]);
+    g.at_j = extra_turn(p_[j], p_[i], p_[k], p_[j - 1]);
+    return g;
+  }
+
+  // Largest turn count the end angle at i of P_{i,j} may have while staying strictly below the target angle
+  // at i; negative when none can. The part of the target beyond the partial angle is the sweep from v_j to
+  // v_{i-1}; it must be a positive angle.
+  int cap_at_start(int i, int j) const {
+    const Pt &c = p_[i], &last = p_[prev(i)];
+    return turn(i) - extra_turn(c, p_[i + 1], p_[j], last) - (sector(c, p_[j], last) == 0 ? 1 : 0);
+  }
+  // Same at j: the target angle there is the sweep v_{j+1} -> v_i (rest of P) plus v_i -> v_{j-1} (P_{i,j}).
+  int cap_at_end(int i, int j) const {
+    const Pt &c = p_[j], &first = p_[next(j)];
+    return turn(j) - extra_turn(c, first, p_[i], p_[j - 1]) - (sector(c, first, p_[i]) == 0 ? 1 : 0);
+  }
+
+  // Visits every way of gluing feasible pairs of P_{i,k} and P_{k,j} at k; f(ri, rj, a, b, c, d) receives
+  // the turns of P_{i,j} at its ends and the pairs (a, b) of P_{i,k} and (c, d) of P_{k,j} used.
+  template <class F>
+  bool for_each_glued_pair(int i, int k, int j, const Glue& g, F&& f) const {
+    const Mask left = entry(i, k), right = entry(k, j);
+    for (int a = 0; a < width_; ++a) {
+      for (int b = 0; b < width_; ++b) {
+        if (!(left & bit(a, b))) continue;
+        const int c = turn(k) - b - g.at_k;  // the turns P_{k,j} must bring at k
+        if (c < 0 || c >= width_) continue;
+        for (int d = 0; d < width_; ++d) {
+          if ((right & bit(c, d)) && f(a + g.at_i, d + g.at_j, a, b, c, d)) return true;
+        }
+      }
+    }
+    return false;
+  }
+
+  Mask constrained_entry(int i, int j) const {
+    const int cap_i = cap_at_start(i, j);
+    if (cap_i < 0) return 0;
+    const int cap_j = cap_at_end(i, j);
+    if (cap_j < 0) return 0;
+    Mask mask = 0;
+    for_each_split(i, j, [&](int k) {
+      if (orient(p_[i], p_[k], p_[j]) <= 0) return false;
+      const Glue g = glue(i, k, j);
+      for_each_glued_pair(i, k, j, g, [&](int ri, int rj, int, int, int, int) {
+        if (ri <= cap_i && rj <= cap_j) mask |= bit(ri, rj);
+        return false;
+      });
+      return width_ == 1 && mask != 0;  // with a single possible pair, the first split settles the entry
+    });
+    return mask;
+  }
+
+  Mask free_entry(int i, int j) const {
+    const bool found = for_each_split(i, j, [&](int k) { return orient(p_[i], p_[k], p_[j]) > 0; });
+    return found ? bit(0, 0) : 0;
+  }
+
+  bool solve_root() {
+    const int i = 0, j = m_ - 1;
+    Split s{};
+    const bool found = for_each_split(i, j, [&](int k) { return find_split(i, k, j, turn(i), turn(j), s); });
+    if (found) set_entry(i, j, turns_ ? bit(turn(i), turn(j)) : bit(0, 0));
+    return found;
+  }
+
+  // Does k split P_{i,j} so that its ends get exactly ri and rj turns? Fills s when it does.
+  bool find_split(int i, int k, int j, int ri, int rj, Split& s) const {
+    if (orient(p_[i], p_[k], p_[j]) <= 0) return false;
+    if (!turns_) {
+      s = {k, 0, 0, 0, 0};
+      return true;
+    }
+    return for_each_glued_pair(i, k, j, glue(i, k, j), [&](int gi, int gj, int a, int b, int c, int d) {
+      if (gi != ri || gj != rj) return false;
+      s = {k, a, b, c, d};
+      return true;
+    });
+  }
+
+  const std::vector<Pt>& p_;
+  int m_;
+  const std::vector<int>* turns_;
+  int width_ = 1;
+  BitMatrix from_;  // row i: j such that P_{i,j} is feasible
+  BitMatrix to_;    // row j: i such that P_{i,j} is feasible
+  std::vector<Mask> masks_;
+};
+
+}  // namespace
+
+ShorVanWykResult shor_van_wyk(const std::vector<Pt>& polygon, const std::vector<int>* turns,
+                              const CancelToken* cancel) {
+  ShorVanWykResult result;
+  if (polygon.size() < 3) return result;
+  Table table(polygon, turns);
+  result.table_bytes = table.bytes();
+  if (table.fill(cancel)) result.triangles = table.triangles();
+  return result;
+}
+
+}  // namespace lipmap::detail
