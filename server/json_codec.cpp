@@ -1,0 +1,564 @@
+#include "server/json_codec.h"
+
+#include <climits>
+#include <cmath>
+#include <initializer_list>
+#include <utility>
+#include <vector>
+
+namespace lipmap::codec {
+
+using nlohmann::json;
+using nlohmann::ordered_json;
+
+namespace {
+
+// ---- JSON pointers, built only when an error needs one -------------------------------------------------
+
+// A path from the document root; children live on the stack of the reader that walks into them, so a
+// million-vertex body costs no string work unless something is wrong.
+struct Path {
+  const Path* parent = nullptr;  // nullptr only for the root
+  std::string_view key;          // member name, when index < 0
+  long long index = -1;          // array index
+
+  Path operator/(std::string_view member) const { return Path{this, member, -1}; }
+  Path operator/(std::size_t i) const { return Path{this, {}, static_cast<long long>(i)}; }
+
+  std::string str() const {
+    if (!parent) return {};
+    std::string out = parent->str();
+    out += '/';
+    out += index >= 0 ? std::to_string(index) : escape_pointer_token(key);
+    return out;
+  }
+};
+
+[[noreturn]] void fail(const std::string& code, const std::string& message, const Path& at) {
+  throw JsonError(code, message, at.str());
+}
+
+std::string quote_key(std::string_view s) {
+  // Keys come from the (UTF-8 validated) body; dump() escapes quotes and control characters so that a
+  // message stays on one line.
+  return json(std::string(s)).dump(-1, ' ', false, json::error_handler_t::replace);
+}
+
+const char* type_phrase(const json& v) {
+  switch (v.type()) {
+    case json::value_t::null: return "null";
+    case json::value_t::boolean: return "a boolean";
+    case json::value_t::number_integer:
+    case json::value_t::number_unsigned:
+    case json::value_t::number_float: return "a number";
+    case json::value_t::string: return "a string";
+    case json::value_t::array: return "an array";
+    case json::value_t::object: return "an object";
+    default: return "an unsupported value";
+  }
+}
+
+[[noreturn]] void wrong_type(const json& v, const char* expected, const Path& at) {
+  fail("wrong_type", std::string("expected ") + expected + ", got " + type_phrase(v), at);
+}
+
+// ---- typed readers -----------------------------------------------------------------------------------
+
+const json& object(const json& v, const Path& at, std::initializer_list<std::string_view> allowed) {
+  if (!v.is_object()) wrong_type(v, "an object", at);
+  for (const auto& [key, value] : v.items()) {
+    bool known = false;
+    for (std::string_view a : allowed) known = known || a == key;
+    if (!known) {
+      std::string list;
+      for (std::string_view a : allowed) list += (list.empty() ? "" : ", ") + std::string(a);
+      fail("unknown_field", "unknown field " + quote_key(key) + " (allowed: " + list + ")", at / std::string_view(key));
+    }
+  }
+  return v;
+}
+
+const json* optional_member(const json& obj, std::string_view key) {
+  auto it = obj.find(std::string(key));
+  return it == obj.end() ? nullptr : &*it;
+}
+
+const json& required_member(const json& obj, std::string_view key, const Path& at) {
+  const json* m = optional_member(obj, key);
+  if (!m) fail("missing_field", "required field " + quote_key(key) + " is missing", at / key);
+  return *m;
+}
+
+const json& array(const json& v, const Path& at, const char* expected = "an array") {
+  if (!v.is_array()) wrong_type(v, expected, at);
+  return v;
+}
+
+double number(const json& v, const Path& at) {
+  if (!v.is_number()) wrong_type(v, "a number", at);
+  double d = v.get<double>();
+  // Unreachable through parse_json (it rejects 1e999), but a json built in code can hold anything.
+  if (!std::isfinite(d)) fail("non_finite_number", "number is not finite", at);
+  return d;
+}
+
+long long integer(const json& v, const Path& at, long long lo = LLONG_MIN, long long hi = LLONG_MAX) {
+  long long value = 0;
+  if (v.is_number_unsigned()) {
+    auto u = v.get<json::number_unsigned_t>();
+    if (u > static_cast<json::number_unsigned_t>(LLONG_MAX))
+      fail("integer_out_of_range", "integer " + v.dump() + " is out of range", at);
+    value = static_cast<long long>(u);
+  } else if (v.is_number_integer()) {
+    value = v.get<json::number_integer_t>();
+  } else if (v.is_number_float()) {
+    // JSON Schema's "integer" admits 2.0; so do we, and nothing with a fractional part.
+    double d = v.get<double>();
+    if (!std::isfinite(d)) fail("non_finite_number", "number is not finite", at);
+    if (std::trunc(d) != d) fail("not_an_integer", "expected an integer, got " + v.dump(), at);
+    if (d < -9223372036854775808.0 || d >= 9223372036854775808.0)
+      fail("integer_out_of_range", "integer " + v.dump() + " is out of range", at);
+    value = static_cast<long long>(d);
+  } else {
+    wrong_type(v, "an integer", at);
+  }
+  if (value < lo || value > hi)
+    fail("integer_out_of_range",
+         "integer " + std::to_string(value) + " is out of range [" + std::to_string(lo) + ", " + std::to_string(hi) + "]",
+         at);
+  return value;
+}
+
+int int32(const json& v, const Path& at) { return static_cast<int>(integer(v, at, INT_MIN, INT_MAX)); }
+
+bool boolean(const json& v, const Path& at) {
+  if (!v.is_boolean()) wrong_type(v, "a boolean", at);
+  return v.get<bool>();
+}
+
+const std::string& string(const json& v, const Path& at) {
+  if (!v.is_string()) wrong_type(v, "a string", at);
+  return v.get_ref<const std::string&>();
+}
+
+// An array of exactly n numbers, e.g. a point [x, y].
+const json& fixed_array(const json& v, std::size_t n, const char* shape, const Path& at) {
+  if (!v.is_array()) wrong_type(v, shape, at);
+  if (v.size() != n)
+    fail("wrong_length", std::string("expected ") + shape + ", got an array of " + std::to_string(v.size()) +
+                             (v.size() == 1 ? " element" : " elements"),
+         at);
+  return v;
+}
+
+Point2 point2(const json& v, const Path& at) {
+  fixed_array(v, 2, "a point [x, y] of 2 numbers", at);
+  return Point2{number(v[0], at / 0u), number(v[1], at / 1u)};
+}
+
+Point3 point3(const json& v, const Path& at) {
+  fixed_array(v, 3, "a point [x, y, z] of 3 numbers", at);
+  return Point3{number(v[0], at / 0u), number(v[1], at / 1u), number(v[2], at / 2u)};
+}
+
+std::vector<Point2> points2(const json& v, const Path& at) {
+  array(v, at, "an array of points [x, y]");
+  std::vector<Point2> out;
+  out.reserve(v.size());
+  for (std::size_t i = 0; i < v.size(); ++i) out.push_back(point2(v[i], at / i));
+  return out;
+}
+
+std::vector<int> ints(const json& v, const Path& at) {
+  array(v, at, "an array of integers");
+  std::vector<int> out;
+  out.reserve(v.size());
+  for (std::size_t i = 0; i < v.size(); ++i) out.push_back(int32(v[i], at / i));
+  return out;
+}
+
+std::vector<long long> longs(const json& v, const Path& at) {
+  array(v, at, "an array of integers");
+  std::vector<long long> out;
+  out.reserve(v.size());
+  for (std::size_t i = 0; i < v.size(); ++i) out.push_back(integer(v[i], at / i));
+  return out;
+}
+
+Triangle triangle(const json& v, const Path& at) {
+  fixed_array(v, 3, "a triangle [i, j, k] of 3 integers", at);
+  return Triangle{int32(v[0], at / 0u), int32(v[1], at / 1u), int32(v[2], at / 2u)};
+}
+
+double non_negative(const json& v, const Path& at) {
+  double d = number(v, at);
+  if (d < 0) fail("invalid_value", "expected a number >= 0, got " + v.dump(), at);
+  return d;
+}
+
+// ---- the parser's output: a DOM built through nlohmann's SAX interface ---------------------------------
+// nlohmann does all the lexing and parsing; this only builds the tree while keeping track of where it
+// is, so that errors the parser finds (overflow, syntax) still come with a JSON pointer, and so that
+// duplicate keys and absurd nesting are refused instead of silently accepted.
+class DomBuilder {
+public:
+  explicit DomBuilder(json& root) : root_(root) {}
+
+  bool null() { return put(nullptr); }
+  bool boolean(bool b) { return put(b); }
+  bool number_integer(json::number_integer_t v) { return put(v); }
+  bool number_unsigned(json::number_unsigned_t v) { return put(v); }
+  bool number_float(json::number_float_t v, const json::string_t& token) {
+    if (!std::isfinite(v)) return stop("non_finite_number", "number " + token + " does not fit in a double");
+    return put(v);
+  }
+  bool string(json::string_t& s) { return put(std::move(s)); }
+  bool binary(json::binary_t& b) { return put(std::move(b)); }
+
+  bool start_object(std::size_t) { return open(json::value_t::object); }
+  bool key(json::string_t& k) {
+    Frame& f = stack_.back();
+    if (f.value->contains(k)) {
+      f.key = k;
+      return stop("duplicate_key", "key " + quote_key(k) + " appears more than once in the same object");
+    }
+    f.key = std::move(k);
+    return true;
+  }
+  bool end_object() { stack_.pop_back(); return true; }
+  bool start_array(std::size_t) { return open(json::value_t::array); }
+  bool end_array() { stack_.pop_back(); return true; }
+
+  bool parse_error(std::size_t position, const std::string& last_token, const nlohmann::detail::exception& ex) {
+    if (ex.id == 406) {  // out_of_range.406: a number literal that overflows a double
+      std::string token = last_token.size() > 40 ? last_token.substr(0, 40) + "..." : last_token;
+      return stop("non_finite_number", "number " + token + " does not fit in a double");
+    }
+    // "[json.exception.parse_error.101] parse error at line 1, column 5: syntax error ..." -> the part
+    // after the bracketed id, cut to a sane length (the last token of a huge string is huge).
+    std::string what = ex.what();
+    if (auto p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
+    if (what.size() > 200) what = what.substr(0, 200) + "...";
+    for (char& c : what)
+      if (static_cast<unsigned char>(c) < 0x20) c = ' ';
+    error_.emplace("invalid_json", what, pointer(), static_cast<long long>(position));
+    return false;
+  }
+
+  std::optional<JsonError>& error() { return error_; }
+
+private:
+  struct Frame {
+    json* value;
+    std::string key;  // objects: the member being read
+  };
+
+  json* slot() {
+    if (stack_.empty()) return &root_;
+    Frame& f = stack_.back();
+    if (f.value->is_array()) {
+      f.value->push_back(nullptr);
+      return &f.value->back();
+    }
+    return &(*f.value)[f.key];
+  }
+  bool put(json v) {
+    *slot() = std::move(v);
+    return true;
+  }
+  bool open(json::value_t type) {
+    if (stack_.size() >= static_cast<std::size_t>(kMaxNesting))
+      return stop("nesting_too_deep", "arrays and objects are nested deeper than " + std::to_string(kMaxNesting));
+    json* s = slot();
+    *s = json(type);
+    stack_.push_back(Frame{s, {}});
+    return true;
+  }
+  bool stop(const char* code, const std::string& message) {
+    error_.emplace(code, message, pointer());
+    return false;
+  }
+  // Where the parser is: the member or element being read in every open container.
+  std::string pointer() const {
+    // An open array's last element is the open container below it; the innermost array's next element
+    // is the value being read.
+    std::string out;
+    for (std::size_t i = 0; i < stack_.size(); ++i) {
+      const Frame& f = stack_[i];
+      out += '/';
+      if (f.value->is_array()) {
+        std::size_t n = f.value->size();
+        out += std::to_string(i + 1 < stack_.size() && n > 0 ? n - 1 : n);
+      } else {
+        out += escape_pointer_token(f.key);
+      }
+    }
+    return out;
+  }
+
+  json& root_;
+  std::vector<Frame> stack_;
+  std::optional<JsonError> error_;
+};
+
+ordered_json triangles_json(const std::vector<Triangle>& triangles) {
+  ordered_json out = ordered_json::array();
+  for (const Triangle& t : triangles) out.push_back({t[0], t[1], t[2]});
+  return out;
+}
+
+}  // namespace
+
+std::string escape_pointer_token(std::string_view token) {
+  std::string out;
+  out.reserve(token.size());
+  for (char c : token) {
+    if (c == '~') out += "~0";
+    else if (c == '/') out += "~1";
+    else out += c;
+  }
+  return out;
+}
+
+json parse_json(std::string_view text) {
+  if (text.find_first_not_of(" \t\r\n") == std::string_view::npos)
+    throw JsonError("invalid_json", "the document is empty", "", 0);
+  json root;
+  DomBuilder builder(root);
+  bool ok = json::sax_parse(text.begin(), text.end(), &builder, json::input_format_t::json, /*strict=*/true);
+  if (!ok || builder.error()) {
+    if (builder.error()) throw *builder.error();
+    throw JsonError("invalid_json", "the document is not valid JSON", "");
+  }
+  return root;
+}
+
+// ---- classify request -----------------------------------------------------------------------------------
+
+BoundaryPolygon classify_request_from_json(const json& body) {
+  const Path root;
+  object(body, root, {"polygon", "rotation_indices"});
+  BoundaryPolygon polygon;
+  polygon.vertices = points2(required_member(body, "polygon", root), root / "polygon");
+  if (const json* r = optional_member(body, "rotation_indices"))
+    polygon.rotation_indices = ints(*r, root / "rotation_indices");
+  return polygon;
+}
+
+ordered_json classify_request_to_json(const BoundaryPolygon& polygon) {
+  ordered_json out;
+  out["polygon"] = ordered_json::array();
+  for (const Point2& p : polygon.vertices) out["polygon"].push_back({p.x, p.y});
+  if (polygon.rotation_indices) out["rotation_indices"] = *polygon.rotation_indices;
+  return out;
+}
+
+// ---- parametrize request ---------------------------------------------------------------------------------
+
+const char* to_string(MapMethod method) {
+  switch (method) {
+    case MapMethod::tutte: return "tutte";
+    case MapMethod::harmonic: return "harmonic";
+  }
+  return "tutte";
+}
+
+ParametrizeRequest parametrize_request_from_json(const json& body) {
+  const Path root;
+  object(body, root, {"mesh", "boundary", "options"});
+  ParametrizeRequest request;
+
+  const Path mesh_at = root / "mesh";
+  const json& mesh = object(required_member(body, "mesh", root), mesh_at, {"vertices", "faces"});
+  {
+    const Path at = mesh_at / "vertices";
+    const json& vertices = array(required_member(mesh, "vertices", mesh_at), at, "an array of points [x, y, z]");
+    request.mesh.vertices.reserve(vertices.size());
+    for (std::size_t i = 0; i < vertices.size(); ++i) request.mesh.vertices.push_back(point3(vertices[i], at / i));
+  }
+  {
+    const Path at = mesh_at / "faces";
+    const json& faces = array(required_member(mesh, "faces", mesh_at), at, "an array of faces [i, j, k]");
+    request.mesh.faces.reserve(faces.size());
+    for (std::size_t f = 0; f < faces.size(); ++f) {
+      const Path face_at = at / f;
+      const json& face = array(faces[f], face_at, "a face [i, j, k] of vertex indices");
+      std::vector<long long> corners;
+      corners.reserve(face.size());
+      for (std::size_t c = 0; c < face.size(); ++c) corners.push_back(integer(face[c], face_at / c));
+      request.mesh.faces.push_back(std::move(corners));
+    }
+  }
+
+  const Path boundary_at = root / "boundary";
+  const json& boundary =
+      object(required_member(body, "boundary", root), boundary_at, {"vertices", "positions", "rotation_indices"});
+  if (const json* v = optional_member(boundary, "vertices")) request.boundary.vertices = longs(*v, boundary_at / "vertices");
+  request.boundary.positions = points2(required_member(boundary, "positions", boundary_at), boundary_at / "positions");
+  if (const json* r = optional_member(boundary, "rotation_indices"))
+    request.boundary.rotation_indices = longs(*r, boundary_at / "rotation_indices");
+
+  if (const json* o = optional_member(body, "options")) {
+    const Path at = root / "options";
+    object(*o, at, {"method", "refine", "target_density"});
+    if (const json* m = optional_member(*o, "method")) {
+      const std::string& name = string(*m, at / "method");
+      if (name == "tutte") request.options.method = MapMethod::tutte;
+      else if (name == "harmonic") request.options.method = MapMethod::harmonic;
+      else fail("invalid_value", "method must be \"tutte\" or \"harmonic\", got " + m->dump(), at / "method");
+    }
+    if (const json* r = optional_member(*o, "refine")) request.options.refine = boolean(*r, at / "refine");
+    if (const json* d = optional_member(*o, "target_density")) {
+      double density = number(*d, at / "target_density");
+      if (!(density > 0)) fail("invalid_value", "target_density must be > 0, got " + d->dump(), at / "target_density");
+      request.options.target_density = density;
+    }
+  }
+  return request;
+}
+
+ordered_json parametrize_request_to_json(const ParametrizeRequest& request) {
+  ordered_json out;
+  ordered_json& mesh = out["mesh"];
+  mesh["vertices"] = ordered_json::array();
+  for (const Point3& p : request.mesh.vertices) mesh["vertices"].push_back({p.x, p.y, p.z});
+  mesh["faces"] = ordered_json::array();
+  for (const auto& f : request.mesh.faces) mesh["faces"].push_back(f);
+  ordered_json& boundary = out["boundary"];
+  if (request.boundary.vertices) boundary["vertices"] = *request.boundary.vertices;
+  boundary["positions"] = ordered_json::array();
+  for (const Point2& p : request.boundary.positions) boundary["positions"].push_back({p.x, p.y});
+  if (request.boundary.rotation_indices) boundary["rotation_indices"] = *request.boundary.rotation_indices;
+  out["options"] = {{"method", to_string(request.options.method)},
+                    {"refine", request.options.refine},
+                    {"target_density", request.options.target_density}};
+  return out;
+}
+
+// ---- classify answer -------------------------------------------------------------------------------------
+
+const char* verdict_name(Verdict verdict) {
+  switch (verdict) {
+    case Verdict::simple: return "simple";
+    case Verdict::self_overlapping: return "self_overlapping";
+    case Verdict::weakly_self_overlapping: return "weakly_self_overlapping";
+    case Verdict::not_self_overlapping: return "not_self_overlapping";
+  }
+  return "not_self_overlapping";
+}
+
+std::optional<Verdict> verdict_from_name(std::string_view name) {
+  for (Verdict v : {Verdict::simple, Verdict::self_overlapping, Verdict::weakly_self_overlapping,
+                    Verdict::not_self_overlapping})
+    if (name == verdict_name(v)) return v;
+  return std::nullopt;
+}
+
+ordered_json classification_to_json(const Classification& c) {
+  ordered_json out;
+  out["verdict"] = verdict_name(c.verdict);
+  out["turning_number"] = c.turning_number;
+  out["triangulation"] = triangles_json(c.triangulation);
+  out["rotation_indices"] = c.rotation_indices;
+  out["singular_vertices"] = c.singular_vertices;
+  if (!c.reason.empty()) out["reason"] = c.reason;
+  const ClassifyStats& s = c.stats;
+  out["diagnostics"] = {{"input_vertices", s.input_vertices},
+                        {"ears_clipped", s.ears_clipped},
+                        {"reduced_vertices", s.reduced_vertices},
+                        {"free_rotation_search", s.free_rotation_search},
+                        {"table_bytes", s.table_bytes},
+                        {"timings_ms", {{"ear_clipping", s.ear_clipping_ms}, {"table", s.table_ms}, {"total", s.total_ms}}}};
+  return out;
+}
+
+Classification classification_from_json(const json& answer) {
+  const Path root;
+  object(answer, root,
+         {"verdict", "turning_number", "triangulation", "rotation_indices", "singular_vertices", "reason", "diagnostics"});
+  Classification c;
+  const json& verdict = required_member(answer, "verdict", root);
+  auto v = verdict_from_name(string(verdict, root / "verdict"));
+  if (!v) fail("invalid_value", "unknown verdict " + verdict.dump(), root / "verdict");
+  c.verdict = *v;
+  c.turning_number = int32(required_member(answer, "turning_number", root), root / "turning_number");
+  {
+    const Path at = root / "triangulation";
+    const json& t = array(required_member(answer, "triangulation", root), at, "an array of triangles [i, j, k]");
+    c.triangulation.reserve(t.size());
+    for (std::size_t i = 0; i < t.size(); ++i) c.triangulation.push_back(triangle(t[i], at / i));
+  }
+  c.rotation_indices = ints(required_member(answer, "rotation_indices", root), root / "rotation_indices");
+  c.singular_vertices = ints(required_member(answer, "singular_vertices", root), root / "singular_vertices");
+  if (const json* r = optional_member(answer, "reason")) c.reason = string(*r, root / "reason");
+
+  const Path d_at = root / "diagnostics";
+  const json& d = object(required_member(answer, "diagnostics", root), d_at,
+                         {"input_vertices", "ears_clipped", "reduced_vertices", "free_rotation_search", "table_bytes",
+                          "timings_ms"});
+  ClassifyStats& s = c.stats;
+  s.input_vertices = static_cast<int>(integer(required_member(d, "input_vertices", d_at), d_at / "input_vertices", 0, INT_MAX));
+  s.ears_clipped = static_cast<int>(integer(required_member(d, "ears_clipped", d_at), d_at / "ears_clipped", 0, INT_MAX));
+  s.reduced_vertices =
+      static_cast<int>(integer(required_member(d, "reduced_vertices", d_at), d_at / "reduced_vertices", 0, INT_MAX));
+  s.free_rotation_search = boolean(required_member(d, "free_rotation_search", d_at), d_at / "free_rotation_search");
+  s.table_bytes = static_cast<std::size_t>(integer(required_member(d, "table_bytes", d_at), d_at / "table_bytes", 0));
+  const Path t_at = d_at / "timings_ms";
+  const json& t = object(required_member(d, "timings_ms", d_at), t_at, {"ear_clipping", "table", "total"});
+  s.ear_clipping_ms = non_negative(required_member(t, "ear_clipping", t_at), t_at / "ear_clipping");
+  s.table_ms = non_negative(required_member(t, "table", t_at), t_at / "table");
+  s.total_ms = non_negative(required_member(t, "total", t_at), t_at / "total");
+  return c;
+}
+
+// ---- errors ------------------------------------------------------------------------------------------
+
+namespace {
+bool starts_with(const std::string& s, std::string_view prefix) { return s.compare(0, prefix.size(), prefix) == 0; }
+std::string with_index(std::string base, const std::optional<long long>& index) {
+  if (index && *index >= 0) base += "/" + std::to_string(*index);
+  return base;
+}
+}  // namespace
+
+std::optional<std::string> classify_error_pointer(const InputError& error) {
+  if (auto* j = dynamic_cast<const JsonError*>(&error)) return j->pointer();
+  const std::string& code = error.code();
+  if (starts_with(code, "rotation_ind")) return with_index("/rotation_indices", error.index());
+  if (starts_with(code, "polygon_")) return with_index("/polygon", error.index());
+  return std::nullopt;
+}
+
+std::optional<std::string> parametrize_error_pointer(const InputError& error) {
+  if (auto* j = dynamic_cast<const JsonError*>(&error)) return j->pointer();
+  const std::string& code = error.code();
+  const std::string& element = error.element();
+  if (code == "mesh_empty") return std::string("/mesh");
+  if (element == "vertex" && error.index()) return with_index("/mesh/vertices", error.index());
+  if (element == "face" && error.index()) return with_index("/mesh/faces", error.index());
+  if (starts_with(code, "rotation_ind")) return with_index("/boundary/rotation_indices", error.index());
+  if (code == "boundary_length_mismatch") return std::string("/boundary/positions");
+  if (code == "boundary_position_non_finite") return with_index("/boundary/positions", error.index());
+  if (starts_with(code, "boundary_vertex") || code == "boundary_not_loop_order")
+    return with_index("/boundary/vertices", error.index());
+  return std::nullopt;
+}
+
+std::string problem_type(const std::string& code) { return "urn:lipmap:problem:" + code; }
+
+ordered_json problem_json(int status, const std::string& title, const std::string& code, const std::string& detail,
+                          const std::optional<std::string>& pointer, const std::string& element,
+                          std::optional<long long> index) {
+  ordered_json out;
+  out["type"] = problem_type(code);
+  out["title"] = title;
+  out["status"] = status;
+  out["detail"] = detail;
+  out["code"] = code;
+  if (pointer) out["pointer"] = *pointer;
+  if (!element.empty()) out["element"] = element;
+  if (index) out["index"] = *index;
+  return out;
+}
+
+}  // namespace lipmap::codec

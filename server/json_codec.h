@@ -1,0 +1,118 @@
+// JSON <-> engine value types: the only place where JSON meets the engine (the CLI and the HTTP server
+// both go through here). Parsing is strict and every failure names the offending value by its RFC 6901
+// JSON pointer, so that a client can find field /mesh/faces/12/1 in a body of a million numbers.
+// The shapes are those of DESIGN.md section 4 and of the JSON Schemas in proto/.
+#pragma once
+
+#include <cstddef>
+#include <optional>
+#include <string>
+#include <string_view>
+
+#include <nlohmann/json.hpp>
+
+#include "engine/boundary_polygon.h"
+#include "engine/classify.h"
+#include "engine/disk_mesh.h"
+#include "engine/error.h"
+
+namespace lipmap::codec {
+
+// Requests are read from nlohmann::json; everything the codec writes is an ordered_json, so that members
+// come out in the documented order (verdict first, diagnostics last) rather than alphabetically.
+
+// A body that is not JSON, or not of the documented shape. It is the caller's fault, so it is an
+// InputError (element "field"); pointer() is the JSON pointer of the offending value ("" = the whole
+// document). Codes:
+//   invalid_json         not JSON at all (syntax error, bad UTF-8, empty body); byte_offset() is the
+//                        number of bytes read when the parser stopped
+//   non_finite_number    a number that does not fit in a double (e.g. 1e999)
+//   nesting_too_deep     arrays/objects nested deeper than kMaxNesting
+//   duplicate_key        the same key twice in one object
+//   wrong_type           e.g. a string where a number is expected
+//   missing_field        a required member is absent
+//   unknown_field        a member the API does not define (catches typos such as "rotation_index")
+//   wrong_length         e.g. a point [x, y, z] where [x, y] is expected
+//   not_an_integer       a number with a fractional part where an index or count is expected
+//   integer_out_of_range an integer too large for its field
+//   invalid_value        a value outside its documented set or range (e.g. options.method)
+class JsonError : public InputError {
+public:
+  JsonError(std::string code, const std::string& message, std::string pointer,
+            std::optional<long long> byte_offset = std::nullopt)
+      : InputError(std::move(code), message, "field"), pointer_(std::move(pointer)), byte_offset_(byte_offset) {}
+
+  const std::string& pointer() const { return pointer_; }
+  const std::optional<long long>& byte_offset() const { return byte_offset_; }
+
+private:
+  std::string pointer_;
+  std::optional<long long> byte_offset_;
+};
+
+inline constexpr int kMaxNesting = 64;
+
+// Parses a whole document. Throws JsonError (invalid_json, non_finite_number, nesting_too_deep,
+// duplicate_key); for the first three the pointer is where the parser was when it stopped.
+nlohmann::json parse_json(std::string_view text);
+
+// RFC 6901: "~" -> "~0", "/" -> "~1".
+std::string escape_pointer_token(std::string_view token);
+
+// ---- POST /v1/polygons/classify: {"polygon": [[x, y]...], "rotation_indices": [r...]?} ----------------
+// Shape only: too few vertices, zero-length edges, negative indices and the like are for the engine's
+// validate_polygon (InputError with its own code).
+BoundaryPolygon classify_request_from_json(const nlohmann::json& body);
+nlohmann::ordered_json classify_request_to_json(const BoundaryPolygon& polygon);
+
+// ---- POST /v1/parametrize and POST /v1/jobs -------------------------------------------------------------
+// {"mesh": {"vertices": [[x,y,z]...], "faces": [[i,j,k]...]},
+//  "boundary": {"vertices": [i...]?, "positions": [[u,v]...], "rotation_indices": [r...]?},
+//  "options": {"method": "tutte"|"harmonic", "refine": bool, "target_density": number > 0}?}
+// Faces may have any number of corners and indices any integer value here: validate_mesh names those
+// faults (face_not_triangle, face_index_out_of_range) with the engine's codes.
+enum class MapMethod { tutte, harmonic };
+const char* to_string(MapMethod method);
+
+struct ParametrizeOptions {
+  MapMethod method = MapMethod::tutte;
+  bool refine = true;
+  double target_density = 1.0;  // target-mesh density relative to the source's
+};
+
+struct ParametrizeRequest {
+  RawMesh mesh;
+  RawBoundary boundary;
+  ParametrizeOptions options;
+};
+
+ParametrizeRequest parametrize_request_from_json(const nlohmann::json& body);
+nlohmann::ordered_json parametrize_request_to_json(const ParametrizeRequest& request);
+
+// ---- classify answer --------------------------------------------------------------------------------
+// {"verdict", "turning_number", "triangulation": [[i,j,k]...], "rotation_indices", "singular_vertices",
+//  "reason"? (only when not empty), "diagnostics": {"input_vertices", "ears_clipped", "reduced_vertices",
+//  "free_rotation_search", "table_bytes", "timings_ms": {"ear_clipping", "table", "total"}}}
+const char* verdict_name(Verdict verdict);                    // the wire names, e.g. "self_overlapping"
+std::optional<Verdict> verdict_from_name(std::string_view name);
+
+nlohmann::ordered_json classification_to_json(const Classification& classification);
+// Strict inverse of classification_to_json (for clients, tests and benchmarks); throws JsonError.
+Classification classification_from_json(const nlohmann::json& answer);
+
+// ---- errors -----------------------------------------------------------------------------------------
+// The JSON pointer of the request value an engine InputError is about, when it can be told from the
+// error's code, element and index (e.g. rotation_index_out_of_range at index 3 -> /rotation_indices/3);
+// a JsonError's own pointer otherwise; nullopt when the error is about the request as a whole.
+std::optional<std::string> classify_error_pointer(const InputError& error);
+std::optional<std::string> parametrize_error_pointer(const InputError& error);
+
+// RFC 7807 problem details (application/problem+json), as proto/problem.schema.json describes:
+// {"type": "urn:lipmap:problem:<code>", "title", "status", "detail", "code"?, "pointer"?, "element"?,
+//  "index"?}. The type is stable per error code.
+nlohmann::ordered_json problem_json(int status, const std::string& title, const std::string& code,
+                            const std::string& detail, const std::optional<std::string>& pointer = std::nullopt,
+                            const std::string& element = {}, std::optional<long long> index = std::nullopt);
+std::string problem_type(const std::string& code);
+
+}  // namespace lipmap::codec
