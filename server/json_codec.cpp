@@ -1,5 +1,6 @@
 #include "server/json_codec.h"
 
+#include <algorithm>
 #include <climits>
 #include <cmath>
 #include <initializer_list>
@@ -509,6 +510,49 @@ Classification classification_from_json(const json& answer) {
   s.table_ms = non_negative(required_member(t, "table", t_at), t_at / "table");
   s.total_ms = non_negative(required_member(t, "total", t_at), t_at / "total");
   return c;
+}
+
+// ---- text -------------------------------------------------------------------------------------------
+
+namespace {
+void dump_pretty(const ordered_json& v, int depth, std::string& out) {
+  constexpr auto replace = ordered_json::error_handler_t::replace;
+  const std::string indent(2 * (depth + 1), ' '), close(2 * depth, ' ');
+  if (v.is_object() && !v.empty()) {
+    out += "{\n";
+    bool first = true;
+    for (const auto& [key, value] : v.items()) {
+      if (!first) out += ",\n";
+      first = false;
+      out += indent + ordered_json(key).dump(-1, ' ', false, replace) + ": ";
+      dump_pretty(value, depth + 1, out);
+    }
+    out += "\n" + close + "}";
+  } else if (v.is_array() && !v.empty() && std::any_of(v.begin(), v.end(), [](const ordered_json& e) {
+               return e.is_structured();
+             })) {
+    out += "[\n";
+    for (std::size_t i = 0; i < v.size(); ++i) {
+      if (i) out += ",\n";
+      out += indent;
+      dump_pretty(v[i], depth + 1, out);
+    }
+    out += "\n" + close + "]";
+  } else if (v.is_array()) {
+    out += "[";
+    for (std::size_t i = 0; i < v.size(); ++i) out += (i ? ", " : "") + v[i].dump(-1, ' ', false, replace);
+    out += "]";
+  } else {
+    out += v.dump(-1, ' ', false, replace);
+  }
+}
+}  // namespace
+
+std::string dump(const ordered_json& value, bool pretty) {
+  if (!pretty) return value.dump(-1, ' ', false, ordered_json::error_handler_t::replace);
+  std::string out;
+  dump_pretty(value, 0, out);
+  return out;
 }
 
 // ---- errors ------------------------------------------------------------------------------------------

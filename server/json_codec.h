@@ -100,6 +100,11 @@ nlohmann::ordered_json classification_to_json(const Classification& classificati
 // Strict inverse of classification_to_json (for clients, tests and benchmarks); throws JsonError.
 Classification classification_from_json(const nlohmann::json& answer);
 
+// Text of an answer. Compact: one line, no spaces. Pretty: indented by 2, but an array of scalars (a
+// point, a triangle, a list of indices) stays on one line, so that a triangulation reads as a list.
+// Invalid UTF-8 in strings is replaced, never thrown.
+std::string dump(const nlohmann::ordered_json& value, bool pretty = false);
+
 // ---- errors -----------------------------------------------------------------------------------------
 // The JSON pointer of the request value an engine InputError is about, when it can be told from the
 // error's code, element and index (e.g. rotation_index_out_of_range at index 3 -> /rotation_indices/3);

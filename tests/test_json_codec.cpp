@@ -480,6 +480,20 @@ TEST(JsonCodecAnswer, RoundTrip) {
   }
 }
 
+TEST(JsonCodecAnswer, DumpCompactAndPretty) {
+  nlohmann::ordered_json j = codec::classification_to_json(sample_classification());
+  j["reason"] = "bad \xff byte";  // invalid UTF-8 is replaced, not thrown
+  std::string compact = codec::dump(j);
+  EXPECT_EQ(compact.find('\n'), std::string::npos);
+  std::string pretty = codec::dump(j, true);
+  EXPECT_NE(pretty.find("\n    [0, 2, 3],\n"), std::string::npos) << pretty;
+  EXPECT_NE(pretty.find("\"rotation_indices\": [1, 0, 0, 0, 0],\n"), std::string::npos) << pretty;
+  EXPECT_NE(pretty.find("\"singular_vertices\": [0],"), std::string::npos) << pretty;
+  EXPECT_EQ(json::parse(pretty), json::parse(compact));
+  EXPECT_EQ(codec::dump(nlohmann::ordered_json::object(), true), "{}");
+  EXPECT_EQ(codec::dump(nlohmann::ordered_json::array(), true), "[]");
+}
+
 TEST(JsonCodecAnswer, StrictInverse) {
   std::string text = codec::classification_to_json(sample_classification()).dump();
   json j = json::parse(text);
