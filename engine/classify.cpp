@@ -51,7 +51,7 @@ int turning_number(const std::vector<Pt>& p) {
     const int o = detail::orient(a, b, c);
     if (o > 0 && !up_in && up_out) ++turns;
     if (o < 0 && up_in && !up_out) --turns;
-    if (o == 0 && !detail::same_ray(b, a, c) && up_in) --turns;  // spike
+    if (o == 0 && detail::same_ray(b, a, c) && up_in) --turns;  // spike: v_{i+1} back towards v_{i-1}
   }
   return turns;
 }

@@ -4,7 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
-#include <deque>
+#include <queue>
 
 namespace lipmap::detail {
 namespace {
@@ -34,15 +34,26 @@ public:
     visit(a, b, [&](std::vector<Edge>& cell) { cell.push_back({from, to}); return false; });
   }
 
-  // Calls f(from, to) for every edge whose cells meet the box of the three points, possibly repeatedly.
-  template <class F>
-  bool any_near(const Pt& a, const Pt& b, const Pt& c, F&& f) const {
+  // Calls f(from, to) for every live edge whose cells meet the box of the three points (an edge may come
+  // up once per cell it covers) until f returns true. Entries that `live` rejects are dropped on the way.
+  template <class Live, class F>
+  bool any_near(const Pt& a, const Pt& b, const Pt& c, Live&& live, F&& f) {
     const int cx0 = cx(std::min({a.x(), b.x(), c.x()})), cx1 = cx(std::max({a.x(), b.x(), c.x()}));
     const int cy0 = cy(std::min({a.y(), b.y(), c.y()})), cy1 = cy(std::max({a.y(), b.y(), c.y()}));
-    for (int y = cy0; y <= cy1; ++y)
-      for (int x = cx0; x <= cx1; ++x)
-        for (const Edge& e : cells_[static_cast<std::size_t>(y) * nx_ + x])
-          if (f(e.from, e.to)) return true;
+    for (int y = cy0; y <= cy1; ++y) {
+      for (int x = cx0; x <= cx1; ++x) {
+        std::vector<Edge>& cell = cells_[static_cast<std::size_t>(y) * nx_ + x];
+        for (std::size_t e = 0; e < cell.size();) {
+          if (!live(cell[e].from, cell[e].to)) {
+            cell[e] = cell.back();
+            cell.pop_back();
+            continue;
+          }
+          if (f(cell[e].from, cell[e].to)) return true;
+          ++e;
+        }
+      }
+    }
     return false;
   }
 
@@ -67,7 +78,7 @@ class EarClipper {
 public:
   EarClipper(const std::vector<Pt>& p, std::vector<int> turns)
       : p_(p), n_(static_cast<int>(p.size())), turns_(std::move(turns)), next_(n_), prev_(n_),
-        alive_(n_, 1), seen_(n_, -1), grid_(p) {
+        alive_(n_, 1), seen_(n_, -1), version_(n_, 0), grid_(p) {
     for (int v = 0; v < n_; ++v) {
       next_[v] = (v + 1) % n_;
       prev_[v] = (v + n_ - 1) % n_;
@@ -77,22 +88,23 @@ public:
   }
 
   EarReduction run(const CancelToken* cancel) {
-    // Eberly-style: clipping an ear changes the ear status of its neighbours, which are queued again.
+    // Smallest ears first (by the length of the chord they add): triangles stay local, so the grid
+    // queries stay small, and a blocked vertex is tested again only when a neighbour was clipped.
     // Removing edges can also free ears elsewhere, hence a few whole passes while they still help.
     for (int pass = 0; pass < 4 && size_ > 3; ++pass) {
       const int before = size_;
-      std::deque<int> queue;
       for (int v = 0; v < n_; ++v)
-        if (alive_[v]) queue.push_back(v);
+        if (alive_[v]) enqueue(v);
       int since_check = 0;
-      while (!queue.empty() && size_ > 3) {
+      while (!queue_.empty() && size_ > 3) {
         if (++since_check == 1024) { check_cancel(cancel); since_check = 0; }
-        const int v = queue.front();
-        queue.pop_front();
-        if (!alive_[v] || !clip_if_ear(v)) continue;
-        queue.push_back(prev_[v]);
-        queue.push_back(next_[v]);
+        const Candidate top = queue_.top();
+        queue_.pop();
+        if (!alive_[top.v] || top.version != version_[top.v] || !clip_if_ear(top.v)) continue;
+        enqueue(prev_[top.v]);
+        enqueue(next_[top.v]);
       }
+      queue_ = {};
       if (size_ == before) break;
     }
     EarReduction out;
@@ -109,6 +121,18 @@ public:
   }
 
 private:
+  struct Candidate {
+    double chord2;
+    int v, version;
+    bool operator<(const Candidate& o) const { return chord2 > o.chord2; }  // min-heap on chord length
+  };
+
+  void enqueue(int v) {
+    const Pt &a = p_[prev_[v]], &b = p_[next_[v]];
+    const double dx = a.x() - b.x(), dy = a.y() - b.y();
+    queue_.push({dx * dx + dy * dy, v, ++version_[v]});
+  }
+
   // Tests the ear at v and clips it when it is safe (see ear_reduction.h).
   bool clip_if_ear(int v) {
     const int a = prev_[v], b = next_[v];
@@ -140,8 +164,8 @@ private:
     const Pt &pa = p_[a], &pv = p_[v], &pb = p_[b];
     const Kernel::Triangle_2 ear(pa, pv, pb);
     ++query_;
-    const bool blocked = grid_.any_near(pa, pv, pb, [&](int from, int to) {
-      if (!alive_[from] || next_[from] != to) return false;  // stale entry of a clipped edge
+    auto live = [&](int from, int to) { return alive_[from] && next_[from] == to; };  // else a clipped edge
+    const bool blocked = grid_.any_near(pa, pv, pb, live, [&](int from, int to) {
       if (seen_[from] == query_) return false;
       seen_[from] = query_;
       if (from == a || from == v) return false;  // the ear's own edges
@@ -158,8 +182,9 @@ private:
   int n_, size_ = 0, query_ = 0;
   std::vector<int> turns_, next_, prev_;
   std::vector<char> alive_;
-  std::vector<int> seen_;
+  std::vector<int> seen_, version_;
   EdgeGrid grid_;
+  std::priority_queue<Candidate> queue_;
   std::vector<Triangle> ears_;
 };
 

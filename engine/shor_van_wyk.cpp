@@ -49,6 +49,7 @@ public:
 
   // Fills the table; true when the whole polygon has a triangulation meeting the targets.
   bool fill(const CancelToken* cancel) {
+    split_hint_.assign(m_, -1);
     for (int d = 2; d < m_; ++d) {
       check_cancel(cancel);
       for (int i = 0; i + d < m_; ++i) {
@@ -163,27 +164,47 @@ private:
     return false;
   }
 
-  Mask constrained_entry(int i, int j) const {
+  // Neighbouring sub-polygons are usually split by the same vertex: before scanning all candidates, try
+  // the splits found for P_{i,j-1} and P_{i+1,j} (split_hint_[i] and split_hint_[i+1] still hold them
+  // from the previous diagonal when P_{i,j} is visited). Only a shortcut: the scan decides otherwise.
+  template <class F>
+  bool try_hints(int i, int j, F&& f) const {
+    for (int k : {split_hint_[i], split_hint_[i + 1]}) {
+      if (k <= i || k >= j) continue;
+      if ((k == i + 1 || from_.get(i, k)) && (k == j - 1 || to_.get(j, k)) && f(k)) return true;
+    }
+    return false;
+  }
+
+  Mask constrained_entry(int i, int j) {
     const int cap_i = cap_at_start(i, j);
     if (cap_i < 0) return 0;
     const int cap_j = cap_at_end(i, j);
     if (cap_j < 0) return 0;
     Mask mask = 0;
-    for_each_split(i, j, [&](int k) {
+    auto add_split = [&](int k) {
       if (orient(p_[i], p_[k], p_[j]) <= 0) return false;
       const Glue g = glue(i, k, j);
       for_each_glued_pair(i, k, j, g, [&](int ri, int rj, int, int, int, int) {
         if (ri <= cap_i && rj <= cap_j) mask |= bit(ri, rj);
         return false;
       });
-      return width_ == 1 && mask != 0;  // with a single possible pair, the first split settles the entry
-    });
+      if (mask == 0 || width_ > 1) return false;
+      split_hint_[i] = k;
+      return true;  // with a single possible pair, the first split settles the entry
+    };
+    if (width_ == 1 && try_hints(i, j, add_split)) return mask;
+    for_each_split(i, j, add_split);
     return mask;
   }
 
-  Mask free_entry(int i, int j) const {
-    const bool found = for_each_split(i, j, [&](int k) { return orient(p_[i], p_[k], p_[j]) > 0; });
-    return found ? bit(0, 0) : 0;
+  Mask free_entry(int i, int j) {
+    auto positive = [&](int k) {
+      if (orient(p_[i], p_[k], p_[j]) <= 0) return false;
+      split_hint_[i] = k;
+      return true;
+    };
+    return (try_hints(i, j, positive) || for_each_split(i, j, positive)) ? bit(0, 0) : 0;
   }
 
   bool solve_root() {
@@ -215,6 +236,7 @@ private:
   BitMatrix from_;  // row i: j such that P_{i,j} is feasible
   BitMatrix to_;    // row j: i such that P_{i,j} is feasible
   std::vector<Mask> masks_;
+  std::vector<int> split_hint_;  // per i: the split last found for an entry (i, .) of the current diagonal
 };
 
 }  // namespace
