@@ -19,14 +19,22 @@
 //   multiple_boundary_loops    more than one boundary loop
 //   not_a_disk                 Euler characteristic V - E + F != 1 (e.g. a punctured torus)
 //
+// Index meanings: a "vertex" or "face" index is the input index. An "edge" index numbers the undirected
+// edges in order of first appearance when faces are walked in input order, corners (0,1), (1,2), (2,0);
+// the message also names the edge by its two vertices.
+//
 // Boundary codes:
-//   boundary_length_mismatch   positions (or rotation indices) not one per boundary vertex
+//   boundary_length_mismatch   positions (or rotation indices) not one per boundary vertex, or the listed
+//                              vertices leave out part of the boundary loop
 //   boundary_position_non_finite                                                 (element "boundary")
 //   boundary_vertex_out_of_range                                                 (element "boundary")
 //   boundary_vertex_not_on_boundary   a listed vertex is interior                (element "boundary")
 //   boundary_vertex_repeated                                                     (element "boundary")
 //   boundary_not_loop_order    the listed vertices are the loop but not in its order (interior on the left)
-//   rotation_index_out_of_range
+//                                                                                (element "boundary")
+//   rotation_index_out_of_range                                                  (element "boundary")
+// "boundary" indices are positions in the caller's lists (vertices / positions / rotation_indices).
+// Then validate_polygon (boundary_polygon.h) runs on the positions.
 #pragma once
 
 #include "engine/disk_mesh.h"

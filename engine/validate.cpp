@@ -1,0 +1,462 @@
+// Stage "validate": raw arrays -> DiskMesh + BoundaryMap (paper 3.1). The checks run in the order that
+// validate.h documents; each one is a full pass that reports the lowest offending index, so the answer
+// for a given input is deterministic. Everything is O(F) with hash maps on edges, or O(F log F).
+#include "engine/validate.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <numeric>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <unordered_map>
+#include <utility>
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+
+#include "engine/error.h"
+
+namespace lipmap {
+namespace {
+
+using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+
+[[noreturn]] void reject(const std::string& code, const std::string& message, const std::string& element = {},
+                         std::optional<long long> index = std::nullopt) {
+  throw InputError(code, message, element, index);
+}
+
+std::string s(long long value) { return std::to_string(value); }
+
+std::string format_point(const Point3& p) {
+  std::ostringstream out;
+  out.precision(17);
+  out << '(' << p.x << ", " << p.y << ", " << p.z << ')';
+  return out.str();
+}
+
+// ---- element-wise checks on the raw arrays ---------------------------------------------------------
+
+void check_not_empty(const RawMesh& raw) {
+  if (raw.vertices.empty() || raw.faces.empty())
+    reject("mesh_empty", "the mesh has " + s(raw.vertices.size()) + " vertices and " + s(raw.faces.size()) +
+                             " faces; it needs at least one of each");
+}
+
+void check_finite_coordinates(const RawMesh& raw) {
+  for (size_t v = 0; v < raw.vertices.size(); ++v) {
+    const Point3& p = raw.vertices[v];
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+      reject("non_finite_coordinate", "vertex " + s(v) + " has a coordinate that is NaN or infinite: " +
+                                          format_point(p), "vertex", v);
+  }
+}
+
+void check_triangles(const RawMesh& raw) {
+  for (size_t f = 0; f < raw.faces.size(); ++f)
+    if (raw.faces[f].size() != 3)
+      reject("face_not_triangle", "face " + s(f) + " has " + s(raw.faces[f].size()) +
+                                      " corners; only triangles are accepted", "face", f);
+}
+
+void check_indices_in_range(const RawMesh& raw) {
+  const long long n = static_cast<long long>(raw.vertices.size());
+  for (size_t f = 0; f < raw.faces.size(); ++f)
+    for (size_t k = 0; k < 3; ++k) {
+      long long v = raw.faces[f][k];
+      if (v < 0 || v >= n)
+        reject("face_index_out_of_range", "face " + s(f) + " corner " + s(k) + " refers to vertex " + s(v) +
+                                              ", but vertex indices run from 0 to " + s(n - 1), "face", f);
+    }
+}
+
+// Only called after the range check, so every index fits in an int.
+std::vector<Triangle> to_triangles(const RawMesh& raw) {
+  std::vector<Triangle> faces(raw.faces.size());
+  for (size_t f = 0; f < faces.size(); ++f)
+    for (int k = 0; k < 3; ++k) faces[f][k] = static_cast<int>(raw.faces[f][k]);
+  return faces;
+}
+
+void check_no_repeated_corner(const std::vector<Triangle>& faces) {
+  for (size_t f = 0; f < faces.size(); ++f) {
+    const Triangle& t = faces[f];
+    if (t[0] == t[1] || t[1] == t[2] || t[2] == t[0])
+      reject("face_repeated_vertex", "face " + s(f) + " uses the same vertex twice: its corners are " + s(t[0]) +
+                                         ", " + s(t[1]) + ", " + s(t[2]), "face", f);
+  }
+}
+
+void check_all_referenced(size_t n_vertices, const std::vector<Triangle>& faces) {
+  std::vector<char> used(n_vertices, 0);
+  for (const Triangle& t : faces)
+    for (int v : t) used[v] = 1;
+  auto unused = std::find(used.begin(), used.end(), 0);
+  if (unused != used.end()) {
+    long long v = unused - used.begin();
+    reject("unreferenced_vertex", "vertex " + s(v) + " is not used by any face; remove it", "vertex", v);
+  }
+}
+
+Kernel::Point_3 to_cgal(const Point3& p) { return Kernel::Point_3(p.x, p.y, p.z); }
+
+void check_no_degenerate_face(const std::vector<Point3>& vertices, const std::vector<Triangle>& faces) {
+  for (size_t f = 0; f < faces.size(); ++f) {
+    const Triangle& t = faces[f];
+    // Exact predicate: a thin but valid triangle must never be mistaken for a flat one, and vice versa.
+    if (!CGAL::collinear(to_cgal(vertices[t[0]]), to_cgal(vertices[t[1]]), to_cgal(vertices[t[2]]))) continue;
+    std::string why = "its corners " + s(t[0]) + ", " + s(t[1]) + ", " + s(t[2]) + " are collinear";
+    for (int k = 0; k < 3; ++k) {
+      int a = t[k], b = t[(k + 1) % 3];
+      if (vertices[a] == vertices[b])
+        why = "its corners " + s(a) + " and " + s(b) + " are at the same position " + format_point(vertices[a]);
+    }
+    reject("degenerate_face", "face " + s(f) + " has zero area: " + why, "face", f);
+  }
+}
+
+void check_no_duplicate_face(const std::vector<Triangle>& faces) {
+  // Sort (vertex set, face) pairs: equal sets become neighbours and the earliest face of a set comes first.
+  std::vector<std::pair<Triangle, int>> keyed(faces.size());
+  for (size_t f = 0; f < faces.size(); ++f) {
+    Triangle key = faces[f];
+    std::sort(key.begin(), key.end());
+    keyed[f] = {key, static_cast<int>(f)};
+  }
+  std::sort(keyed.begin(), keyed.end());
+  int worst = -1, original = -1;
+  for (size_t i = 1; i < keyed.size(); ++i) {
+    if (keyed[i].first != keyed[i - 1].first) continue;
+    size_t first = i - 1;
+    while (first > 0 && keyed[first - 1].first == keyed[i].first) --first;
+    if (worst < 0 || keyed[i].second < worst) worst = keyed[i].second, original = keyed[first].second;
+  }
+  if (worst >= 0) {
+    const Triangle& t = faces[worst];
+    reject("duplicate_face", "face " + s(worst) + " (vertices " + s(t[0]) + ", " + s(t[1]) + ", " + s(t[2]) +
+                                 ") uses the same three vertices as face " + s(original), "face", worst);
+  }
+}
+
+// ---- edges -----------------------------------------------------------------------------------------
+
+// Half-edge h = 3f + k runs from corner k of face f to corner k+1: the face lies on its left.
+int from_vertex(const std::vector<Triangle>& faces, int h) { return faces[h / 3][h % 3]; }
+int to_vertex(const std::vector<Triangle>& faces, int h) { return faces[h / 3][(h % 3 + 1) % 3]; }
+
+// Undirected edges, numbered in order of first appearance when the faces are walked in order (the
+// numbering the TriMesh built from the same faces would use). The "edge" index in errors is this number.
+struct EdgeTable {
+  std::vector<int> first_use;  // per edge: offset into uses (CSR), size E + 1
+  std::vector<int> uses;       // half-edges of each edge, ascending
+  size_t size() const { return first_use.size() - 1; }
+  int count(size_t e) const { return first_use[e + 1] - first_use[e]; }
+  int use(size_t e, int i) const { return uses[first_use[e] + i]; }
+};
+
+EdgeTable build_edges(const std::vector<Triangle>& faces) {
+  const int n_halfedges = static_cast<int>(faces.size() * 3);
+  std::unordered_map<std::uint64_t, int> id;
+  id.reserve(faces.size() * 2);
+  std::vector<int> edge_of(n_halfedges);
+  for (int h = 0; h < n_halfedges; ++h) {
+    const int u = from_vertex(faces, h), v = to_vertex(faces, h);
+    const int a = std::min(u, v), b = std::max(u, v);
+    std::uint64_t key = (std::uint64_t(std::uint32_t(a)) << 32) | std::uint32_t(b);
+    edge_of[h] = id.emplace(key, static_cast<int>(id.size())).first->second;
+  }
+  EdgeTable table;
+  table.first_use.assign(id.size() + 1, 0);
+  for (int e : edge_of) ++table.first_use[e + 1];
+  std::partial_sum(table.first_use.begin(), table.first_use.end(), table.first_use.begin());
+  table.uses.resize(n_halfedges);
+  std::vector<int> fill(table.first_use.begin(), table.first_use.end() - 1);
+  for (int h = 0; h < n_halfedges; ++h) table.uses[fill[edge_of[h]]++] = h;
+  return table;
+}
+
+std::string edge_name(const std::vector<Triangle>& faces, int h) {
+  const int u = from_vertex(faces, h), v = to_vertex(faces, h);
+  return "edge " + s(std::min(u, v)) + "-" + s(std::max(u, v));
+}
+
+void check_manifold_edges(const std::vector<Triangle>& faces, const EdgeTable& edges) {
+  for (size_t e = 0; e < edges.size(); ++e) {
+    if (edges.count(e) <= 2) continue;
+    std::string list;
+    for (int i = 0; i < edges.count(e) && i < 8; ++i) list += (i ? ", " : "") + s(edges.use(e, i) / 3);
+    if (edges.count(e) > 8) list += ", ...";
+    reject("non_manifold_edge", edge_name(faces, edges.use(e, 0)) + " is shared by " + s(edges.count(e)) +
+                                    " faces (" + list + "); at most two faces may meet at an edge", "edge", e);
+  }
+}
+
+void check_orientation(const std::vector<Triangle>& faces, const EdgeTable& edges) {
+  for (size_t e = 0; e < edges.size(); ++e) {
+    if (edges.count(e) != 2) continue;
+    int h1 = edges.use(e, 0), h2 = edges.use(e, 1);
+    if (from_vertex(faces, h1) != from_vertex(faces, h2)) continue;
+    reject("inconsistent_orientation",
+           "faces " + s(h1 / 3) + " and " + s(h2 / 3) + " both run along " + edge_name(faces, h1) +
+               " from vertex " + s(from_vertex(faces, h1)) + " to " + s(to_vertex(faces, h1)) +
+               ": neighbouring faces must list their shared edge in opposite directions (flip one of them)",
+           "edge", e);
+  }
+}
+
+class DisjointSets {
+public:
+  explicit DisjointSets(size_t n) : parent_(n) { std::iota(parent_.begin(), parent_.end(), 0); }
+  int find(int x) {
+    while (parent_[x] != x) x = parent_[x] = parent_[parent_[x]];
+    return x;
+  }
+  // The smaller index becomes the root, so roots are deterministic.
+  void unite(int a, int b) {
+    a = find(a), b = find(b);
+    if (a != b) parent_[std::max(a, b)] = std::min(a, b);
+  }
+
+private:
+  std::vector<int> parent_;
+};
+
+// Corner c = 3f + k is vertex faces[f][k] seen from face f. Two corners of the same vertex belong to
+// one fan when their faces share an edge at that vertex; one fan per vertex is a manifold vertex.
+void check_manifold_vertices(const std::vector<Triangle>& faces, size_t n_vertices, const EdgeTable& edges) {
+  DisjointSets fans(faces.size() * 3);
+  for (size_t e = 0; e < edges.size(); ++e) {
+    if (edges.count(e) != 2) continue;
+    int h1 = edges.use(e, 0), h2 = edges.use(e, 1);  // opposite directions: h1 = a->b, h2 = b->a
+    auto next_corner = [](int h) { return h - h % 3 + (h % 3 + 1) % 3; };
+    fans.unite(h1, next_corner(h2));   // corners of a
+    fans.unite(next_corner(h1), h2);   // corners of b
+  }
+  std::vector<int> fan_of(n_vertices, -1);
+  int bad = -1, face_a = -1, face_b = -1;
+  for (int c = 0; c < static_cast<int>(faces.size() * 3); ++c) {
+    int v = faces[c / 3][c % 3], fan = fans.find(c);
+    if (fan_of[v] < 0) fan_of[v] = fan;
+    else if (fan_of[v] != fan && (bad < 0 || v < bad)) bad = v, face_a = fan_of[v] / 3, face_b = c / 3;
+  }
+  if (bad >= 0)
+    reject("non_manifold_vertex", "the faces around vertex " + s(bad) + " form more than one fan: faces " +
+                                      s(face_a) + " and " + s(face_b) +
+                                      " meet only at this vertex (a surface pinched to a point)", "vertex", bad);
+}
+
+void check_connected(const std::vector<Triangle>& faces, const EdgeTable& edges) {
+  DisjointSets parts(faces.size());
+  for (size_t e = 0; e < edges.size(); ++e)
+    if (edges.count(e) == 2) parts.unite(edges.use(e, 0) / 3, edges.use(e, 1) / 3);
+  int components = 0, first_outside = -1;
+  for (int f = 0; f < static_cast<int>(faces.size()); ++f) {
+    if (parts.find(f) != f) continue;
+    ++components;
+    if (f != 0 && first_outside < 0) first_outside = f;
+  }
+  if (components > 1)
+    reject("not_connected", "the mesh has " + s(components) + " separate pieces; face " + s(first_outside) +
+                                " is not connected to face 0 (a disk is one piece)", "face", first_outside);
+}
+
+// ---- boundary and topology ---------------------------------------------------------------------------
+
+// Follows boundary half-edges in face direction (interior on the left). Loops are listed by their lowest
+// vertex, each starting there. Requires manifold, consistently oriented faces.
+std::vector<std::vector<int>> boundary_loops(const std::vector<Triangle>& faces, size_t n_vertices,
+                                             const EdgeTable& edges) {
+  std::vector<int> next(n_vertices, -1);
+  for (size_t e = 0; e < edges.size(); ++e) {
+    if (edges.count(e) != 1) continue;
+    int h = edges.use(e, 0), a = from_vertex(faces, h);
+    if (next[a] >= 0) throw InternalError("validate: vertex " + s(a) + " has two outgoing boundary edges");
+    next[a] = to_vertex(faces, h);
+  }
+  std::vector<std::vector<int>> loops;
+  std::vector<char> seen(n_vertices, 0);
+  for (int start = 0; start < static_cast<int>(n_vertices); ++start) {
+    if (next[start] < 0 || seen[start]) continue;
+    std::vector<int> loop;
+    for (int v = start; !seen[v]; v = next[v]) {
+      if (next[v] < 0) throw InternalError("validate: boundary breaks off at vertex " + s(v));
+      seen[v] = 1;
+      loop.push_back(v);
+    }
+    loops.push_back(std::move(loop));
+  }
+  return loops;
+}
+
+void check_one_boundary_loop(const std::vector<std::vector<int>>& loops) {
+  if (loops.empty())
+    reject("no_boundary", "the mesh is a closed surface (it has no boundary edge); a disk needs one boundary "
+                          "loop: cut the surface open first");
+  if (loops.size() == 1) return;
+  std::string sizes;
+  for (size_t i = 0; i < loops.size() && i < 8; ++i)
+    sizes += (i ? ", " : "") + s(loops[i].size()) + " vertices from vertex " + s(loops[i][0]);
+  if (loops.size() > 8) sizes += ", ...";
+  reject("multiple_boundary_loops", "the mesh has " + s(loops.size()) + " boundary loops (" + sizes +
+                                        "); a disk has exactly one: fill the holes or cut between them");
+}
+
+void check_euler(size_t n_vertices, size_t n_edges, size_t n_faces) {
+  long long chi = static_cast<long long>(n_vertices) - static_cast<long long>(n_edges) +
+                  static_cast<long long>(n_faces);
+  if (chi == 1) return;
+  // One boundary loop, connected and orientable: chi = 1 - 2 * genus.
+  reject("not_a_disk", "the mesh has one boundary loop but V - E + F = " + s(n_vertices) + " - " + s(n_edges) +
+                           " + " + s(n_faces) + " = " + s(chi) + ", not 1: it has " + s((1 - chi) / 2) +
+                           " handle(s) (e.g. a punctured torus); cut it into a disk first");
+}
+
+TriMesh build_trimesh(const std::vector<Point3>& vertices, const std::vector<Triangle>& faces) {
+  TriMesh mesh;
+  mesh.reserve(vertices.size(), faces.size() * 3 / 2 + 3, faces.size());
+  std::vector<TriMesh::VertexHandle> handles;
+  handles.reserve(vertices.size());
+  for (const Point3& p : vertices) handles.push_back(mesh.add_vertex(TriMesh::Point(p.x, p.y, p.z)));
+  for (size_t f = 0; f < faces.size(); ++f) {
+    const Triangle& t = faces[f];
+    auto fh = mesh.add_face(handles[t[0]], handles[t[1]], handles[t[2]]);
+    if (!fh.is_valid() || fh.idx() != static_cast<int>(f))
+      throw InternalError("validate: OpenMesh refused face " + s(f) + " of a mesh that passed every check");
+  }
+  return mesh;
+}
+
+// ---- boundary map ----------------------------------------------------------------------------------
+
+void check_lengths(const RawBoundary& raw, size_t expected, bool listed) {
+  const std::string what = listed ? "listed boundary vertices" : "boundary vertices of the mesh";
+  if (raw.positions.size() != expected)
+    reject("boundary_length_mismatch", s(raw.positions.size()) + " boundary positions for " + s(expected) + " " +
+                                           what + "; give one position per boundary vertex");
+  if (raw.rotation_indices && raw.rotation_indices->size() != expected)
+    reject("boundary_length_mismatch", s(raw.rotation_indices->size()) + " rotation indices for " + s(expected) +
+                                           " " + what + "; give one per boundary vertex");
+}
+
+void check_positions_finite(const std::vector<Point2>& positions) {
+  for (size_t k = 0; k < positions.size(); ++k)
+    if (!std::isfinite(positions[k].x) || !std::isfinite(positions[k].y))
+      reject("boundary_position_non_finite", "boundary position " + s(k) + " has a NaN or infinite coordinate",
+             "boundary", k);
+}
+
+// The listed vertices must be distinct boundary vertices and, together, the whole boundary loop.
+void check_listed_vertices(const DiskMesh& mesh, const std::vector<long long>& listed,
+                           const std::vector<int>& position_in_loop) {
+  const long long n = static_cast<long long>(mesh.vertices.size());
+  std::vector<long long> listed_at(mesh.boundary_loop.size(), -1);
+  for (size_t k = 0; k < listed.size(); ++k) {
+    long long v = listed[k];
+    if (v < 0 || v >= n)
+      reject("boundary_vertex_out_of_range", "boundary entry " + s(k) + " is vertex " + s(v) +
+                                                 ", but vertex indices run from 0 to " + s(n - 1), "boundary", k);
+    int at = position_in_loop[v];
+    if (at < 0)
+      reject("boundary_vertex_not_on_boundary", "boundary entry " + s(k) + " is vertex " + s(v) +
+                                                    ", which is an interior vertex of the mesh", "boundary", k);
+    if (listed_at[at] >= 0)
+      reject("boundary_vertex_repeated", "boundary entry " + s(k) + " repeats vertex " + s(v) +
+                                             " (already entry " + s(listed_at[at]) + ")", "boundary", k);
+    listed_at[at] = static_cast<long long>(k);
+  }
+  auto missing = std::find(listed_at.begin(), listed_at.end(), -1);
+  if (missing != listed_at.end())
+    reject("boundary_length_mismatch", s(listed.size()) + " boundary vertices listed but the mesh boundary has " +
+                                           s(mesh.boundary_loop.size()) + "; vertex " +
+                                           s(mesh.boundary_loop[missing - listed_at.begin()]) + " is missing");
+}
+
+// listed is a permutation of the loop; it must be a rotation of it (same direction, any start).
+void check_loop_order(const std::vector<int>& loop, const std::vector<long long>& listed,
+                      const std::vector<int>& position_in_loop) {
+  const size_t n = loop.size();
+  const size_t start = position_in_loop[listed[0]];
+  size_t first_wrong = n;
+  for (size_t k = 0; k < n && first_wrong == n; ++k)
+    if (listed[k] != loop[(start + k) % n]) first_wrong = k;
+  if (first_wrong == n) return;
+  bool reversed = true;
+  for (size_t k = 0; k < n && reversed; ++k) reversed = listed[k] == loop[(start + n - k) % n];
+  if (reversed)
+    reject("boundary_not_loop_order", "the boundary vertices are listed in reverse: the interior must be on the "
+                                      "left, i.e. list them in the direction of the faces (vertex " +
+                                          s(listed[0]) + " is followed by " + s(loop[(start + 1) % n]) + ")",
+           "boundary", first_wrong);
+  reject("boundary_not_loop_order", "boundary entry " + s(first_wrong) + " is vertex " + s(listed[first_wrong]) +
+                                        " but the boundary loop continues with vertex " +
+                                        s(loop[(start + first_wrong) % n]) +
+                                        "; list the vertices in loop order with the interior on the left",
+         "boundary", first_wrong);
+}
+
+void check_rotation_indices(const std::vector<long long>& rotation_indices) {
+  for (size_t k = 0; k < rotation_indices.size(); ++k) {
+    long long r = rotation_indices[k];
+    if (r < 0 || r > kMaxRotationIndex)
+      reject("rotation_index_out_of_range", "rotation index " + s(k) + " is " + s(r) + "; it must be between 0 and " +
+                                                s(kMaxRotationIndex), "boundary", k);
+  }
+}
+
+}  // namespace
+
+DiskMesh validate_mesh(const RawMesh& raw) {
+  check_not_empty(raw);
+  check_finite_coordinates(raw);
+  check_triangles(raw);
+  check_indices_in_range(raw);
+  std::vector<Triangle> faces = to_triangles(raw);
+  check_no_repeated_corner(faces);
+  check_all_referenced(raw.vertices.size(), faces);
+  check_no_degenerate_face(raw.vertices, faces);
+  check_no_duplicate_face(faces);
+
+  const EdgeTable edges = build_edges(faces);
+  check_manifold_edges(faces, edges);
+  check_orientation(faces, edges);
+  check_manifold_vertices(faces, raw.vertices.size(), edges);
+  check_connected(faces, edges);
+  std::vector<std::vector<int>> loops = boundary_loops(faces, raw.vertices.size(), edges);
+  check_one_boundary_loop(loops);
+  check_euler(raw.vertices.size(), edges.size(), faces.size());
+
+  DiskMesh disk;
+  disk.vertices = raw.vertices;
+  disk.boundary_loop = std::move(loops.front());
+  disk.mesh = build_trimesh(raw.vertices, faces);
+  disk.faces = std::move(faces);
+  return disk;
+}
+
+BoundaryMap validate_boundary(const DiskMesh& mesh, const RawBoundary& raw) {
+  const bool listed = raw.vertices.has_value();
+  check_lengths(raw, listed ? raw.vertices->size() : mesh.boundary_loop.size(), listed);
+  check_positions_finite(raw.positions);
+
+  BoundaryMap map;
+  if (listed) {
+    std::vector<int> position_in_loop(mesh.vertices.size(), -1);
+    for (size_t i = 0; i < mesh.boundary_loop.size(); ++i) position_in_loop[mesh.boundary_loop[i]] = int(i);
+    check_listed_vertices(mesh, *raw.vertices, position_in_loop);
+    check_loop_order(mesh.boundary_loop, *raw.vertices, position_in_loop);
+    map.loop.assign(raw.vertices->begin(), raw.vertices->end());
+  } else {
+    map.loop = mesh.boundary_loop;
+  }
+
+  map.polygon.vertices = raw.positions;
+  if (raw.rotation_indices) {
+    check_rotation_indices(*raw.rotation_indices);
+    map.polygon.rotation_indices.emplace(raw.rotation_indices->begin(), raw.rotation_indices->end());
+  }
+  validate_polygon(map.polygon);
+  return map;
+}
+
+}  // namespace lipmap
