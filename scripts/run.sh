@@ -14,9 +14,7 @@ jobs="${LIPMAP_JOBS:-2}"
 polygon="${1:-tests/data/polygons/spiral_overlapping.json}"
 
 bash scripts/setup.sh
-# CMAKE_FIND_PACKAGE_PREFER_CONFIG: see scripts/test.sh.
-cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_COMPILER_LAUNCHER=ccache \
-  -DCMAKE_FIND_PACKAGE_PREFER_CONFIG=ON >&2
+cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_COMPILER_LAUNCHER=ccache >&2
 cmake --build "$build_dir" -j "$jobs" --target lipmap >&2
 echo "lipmap classify --pretty $polygon" >&2
 exec "$build_dir/server/lipmap" classify --pretty "$polygon"

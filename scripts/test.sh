@@ -24,10 +24,7 @@ fi
 npm ci --no-audit --no-fund --loglevel=error
 
 echo "== build ($build_dir, Release)"
-# CMAKE_FIND_PACKAGE_PREFER_CONFIG: CGAL puts its own FindOpenMesh.cmake on the module path, which does
-# not find Debian's OpenMesh; its CMake config package does.
-cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_COMPILER_LAUNCHER=ccache \
-  -DCMAKE_FIND_PACKAGE_PREFER_CONFIG=ON
+cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_COMPILER_LAUNCHER=ccache
 cmake --build "$build_dir" -j "$jobs"
 
 export LIPMAP_BIN="$root/$build_dir/server/lipmap"
