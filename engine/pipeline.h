@@ -1,0 +1,75 @@
+// The whole engine as one call (DESIGN.md section 1): validate -> classify -> target mesh -> intermediate
+// maps -> compose -> refine -> verify -> quality. Each stage is timed; the cancel token is checked between
+// stages and inside long loops; progress is reported by stage. No transport here: the CLI and the HTTP
+// server both call parametrize().
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "engine/cancel.h"
+#include "engine/classify.h"
+#include "engine/disk_mesh.h"
+#include "engine/error.h"
+#include "engine/intermediate_map.h"
+#include "engine/quality.h"
+#include "engine/refine.h"
+#include "engine/verify.h"
+
+namespace lipmap {
+
+struct ParametrizeOptions {
+  MapMethod method = MapMethod::harmonic;
+  bool refine = true;           // false: the vertex-wise map only (may have flips; reported, never verified)
+  double target_density = 1.0;  // target mesh triangles ~ density * source triangles
+};
+
+enum class Stage { validate, classify, target_mesh, intermediate_maps, compose, refine, verify, quality };
+const char* to_string(Stage stage);
+
+// Called at the start of every stage (fraction 0) and when it ends (fraction 1); long stages may report
+// in between. Must be cheap and must not throw.
+using ProgressFn = std::function<void(Stage stage, double fraction)>;
+
+struct StageTimings {  // milliseconds
+  double validate = 0, classify = 0, target_mesh = 0, intermediate_maps = 0, compose = 0, refine = 0,
+         verify = 0, quality = 0, total = 0;
+};
+
+struct TargetMeshSummary {
+  int vertices = 0, faces = 0, pieces = 0;
+  double min_angle_deg = 0;
+};
+
+struct ParametrizeResult {
+  Classification classification;    // verdict, turning number, singular vertices, coarse triangulation
+  std::vector<int> boundary_loop;   // boundary vertex loop[k] is pinned to polygon vertex k
+  BoundaryPolygon polygon;
+  RefinedMap map;                   // refined mesh, uv, inserted vertices
+  TargetMeshSummary target_mesh;
+  DiskMapSolution source_map_solution = DiskMapSolution::primary, target_map_solution = DiskMapSolution::primary;
+  Distortion distortion;
+  int flipped = 0;                  // non-positive uv triangles of the result: 0 whenever refine is on
+  StageTimings timings;
+};
+
+// The boundary polygon admits no locally injective map (for the prescribed rotation indices, if any).
+// An InputError with code "not_self_overlapping" that also carries the classification.
+class NotSelfOverlapping : public InputError {
+public:
+  explicit NotSelfOverlapping(Classification c)
+      : InputError("not_self_overlapping", "the boundary polygon is not self-overlapping: " + c.reason),
+        classification_(std::move(c)) {}
+  const Classification& classification() const { return classification_; }
+
+private:
+  Classification classification_;
+};
+
+// Throws InputError (validation, options, NotSelfOverlapping), Cancelled, or InternalError when a result
+// fails verify (never returned).
+ParametrizeResult parametrize(const RawMesh& mesh, const RawBoundary& boundary, const ParametrizeOptions& options,
+                              const CancelToken* cancel = nullptr, const ProgressFn& progress = {});
+
+}  // namespace lipmap

@@ -1,0 +1,44 @@
+// Stage "refine" (paper 4, "Source mesh refinement", Fig. 10-12). Source triangles whose image under the
+// vertex-wise map is not positive (or whose vertices are not locally injective) get the intersection points
+// of their edges (in the disk) with h_t(M_t)'s edges inserted, computed exactly; neighbours whose image
+// polygon stops being self-overlapping follow. Then inserted points are removed again, round after round,
+// while both polygons they belong to stay self-overlapping and the angle sums at their neighbours are
+// unchanged (Fig. 11). Finally every refined triangle and its image are triangulated compatibly (Fig. 12):
+// positive in uv and with no triangle whose corners all lie on one original edge.
+#pragma once
+
+#include <vector>
+
+#include "engine/cancel.h"
+#include "engine/compose.h"
+#include "engine/disk_mesh.h"
+#include "engine/geometry.h"
+#include "engine/target_mesh.h"
+
+namespace lipmap {
+
+// A vertex of the refined mesh that is not an original vertex: it lies on original edge (a, b), a < b, at
+// position a + t (b - a), 0 < t < 1, never on the boundary.
+struct InsertedVertex {
+  int a = 0, b = 0;
+  double t = 0;
+};
+
+struct RefinedMap {
+  std::vector<Point3> vertices;          // original vertices first (same index, same position), then inserted
+  std::vector<Triangle> faces;
+  std::vector<Point2> uv;                // one per vertex
+  std::vector<InsertedVertex> inserted;  // inserted[i] is vertex source.vertices.size() + i
+  int flipped_before_refinement = 0;     // source faces whose vertex-wise image was not strictly positive
+  int refined_faces = 0;                 // source faces that carried inserted points at some time
+  int points_before_simplification = 0;  // inserted points before the rounds of Fig. 11
+  int simplification_rounds = 0;
+  double refine_ms = 0, simplify_ms = 0, triangulate_ms = 0;
+};
+
+// With refine = false only the vertex-wise map is returned (faces as in the source, possibly flipped).
+RefinedMap refine(const DiskMesh& source, const std::vector<int>& loop, const std::vector<Point2>& source_disk,
+                  const TargetMesh& target, const std::vector<Point2>& target_disk, const Composition& composition,
+                  bool refine, const CancelToken* cancel = nullptr);
+
+}  // namespace lipmap

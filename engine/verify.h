@@ -1,0 +1,24 @@
+// Stage "verify": the checks of DESIGN.md section 2 on a finished map, with exact predicates, before it is
+// returned. A violation is a bug: verify_map throws InternalError naming the check and the element.
+#pragma once
+
+#include <vector>
+
+#include "engine/boundary_polygon.h"
+#include "engine/disk_mesh.h"
+#include "engine/refine.h"
+
+namespace lipmap {
+
+struct VerifyReport {
+  int faces_checked = 0;
+  int interior_vertices_checked = 0;
+  double area_relative_error = 0;  // |area(M_r) - area(M)| / area(M)
+  double ms = 0;
+};
+
+// loop and polygon: boundary vertex loop[k] must have uv == polygon.vertices[k] bit for bit.
+VerifyReport verify_map(const DiskMesh& source, const std::vector<int>& loop, const BoundaryPolygon& polygon,
+                        const RefinedMap& map);
+
+}  // namespace lipmap
