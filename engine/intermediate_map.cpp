@@ -181,6 +181,57 @@ System extract(const SpMat& L, const Layout& lay, const std::vector<Point2>& uv)
   return s;
 }
 
+// The interior system of a symmetric operator given by per-face edge weights, assembled directly (no
+// vertex_count x vertex_count matrix): weight(f, k) is face f's contribution to the edge opposite its
+// corner k. Same operator as extract(laplacian_from_...(...)), summed in a different order.
+template <class Weight>
+System assemble_symmetric(const Layout& lay, const std::vector<Triangle>& faces, const std::vector<Point2>& uv,
+                          Weight weight) {
+  const int m = static_cast<int>(lay.interior.size());
+  System s;
+  s.bx.assign(static_cast<std::size_t>(m), 0.0L);
+  s.by.assign(static_cast<std::size_t>(m), 0.0L);
+  std::vector<double> diag(static_cast<std::size_t>(m), 0.0);
+  std::vector<Triplet> trip;
+  trip.reserve(faces.size() * 6 + static_cast<std::size_t>(m));
+  auto half = [&](int ri, int j, int rj, double w) {
+    diag[static_cast<std::size_t>(ri)] += w;
+    if (rj >= 0) {
+      trip.emplace_back(ri, rj, -w);
+    } else {
+      const Point2& p = uv[static_cast<std::size_t>(j)];
+      s.bx[static_cast<std::size_t>(ri)] += static_cast<long double>(w) * p.x;
+      s.by[static_cast<std::size_t>(ri)] += static_cast<long double>(w) * p.y;
+    }
+  };
+  for (std::size_t f = 0; f < faces.size(); ++f) {
+    const Triangle& t = faces[f];
+    for (int k = 0; k < 3; ++k) {
+      const int i = t[static_cast<std::size_t>((k + 1) % 3)];
+      const int j = t[static_cast<std::size_t>((k + 2) % 3)];
+      const int ri = lay.row[static_cast<std::size_t>(i)], rj = lay.row[static_cast<std::size_t>(j)];
+      if (ri < 0 && rj < 0) continue;
+      const double w = weight(f, k);
+      if (ri >= 0) half(ri, j, rj, w);
+      if (rj >= 0) half(rj, i, ri, w);
+    }
+  }
+  for (int i = 0; i < m; ++i) trip.emplace_back(i, i, diag[static_cast<std::size_t>(i)]);
+  s.A.resize(m, m);
+  s.A.setFromTriplets(trip.begin(), trip.end());
+  s.A.makeCompressed();
+  s.b.resize(m, 2);
+  for (int i = 0; i < m; ++i) {
+    s.b(i, 0) = static_cast<double>(s.bx[static_cast<std::size_t>(i)]);
+    s.b(i, 1) = static_cast<double>(s.by[static_cast<std::size_t>(i)]);
+  }
+  return s;
+}
+
+System assemble_uniform(const Layout& lay, const std::vector<Triangle>& faces, const std::vector<Point2>& uv) {
+  return assemble_symmetric(lay, faces, uv, [](std::size_t, int) { return 0.5; });
+}
+
 // R = b - A X, accumulated in long double.
 void residual(const System& s, const Rhs& X, Rhs& R) {
   const Eigen::Index m = s.A.rows();
@@ -404,7 +455,9 @@ SpMat mean_value_laplacian(const Layout& lay, const std::vector<Triangle>& faces
 
 // ---- the driver -----------------------------------------------------------------------------------
 
-DiskMap run(const DiskMapInput& in, const Layout& lay, const SpMat& L, bool fallbacks, double assemble_ms,
+// build(uv) returns the primary interior system for the boundary positions in uv.
+template <class Build>
+DiskMap run(const DiskMapInput& in, const Layout& lay, Build build, bool fallbacks, double assemble_ms,
             const CancelToken* cancel, Clock::time_point t_start) {
   const std::vector<Triangle>& faces = *in.faces;
   const std::vector<int>& loop = *lay.loop;
@@ -425,7 +478,7 @@ DiskMap run(const DiskMapInput& in, const Layout& lay, const SpMat& L, bool fall
   }
 
   auto t0 = Clock::now();
-  const System sys = extract(L, lay, out.uv);
+  const System sys = build(out.uv);
   out.assemble_ms += ms_since(t0);
   check_cancel(cancel);
 
@@ -460,7 +513,7 @@ DiskMap run(const DiskMapInput& in, const Layout& lay, const SpMat& L, bool fall
     }
     if (attempts.back().flips > 0) {
       check_cancel(cancel);
-      const System st = extract(uniform_laplacian(lay.n, faces), lay, out.uv);
+      const System st = assemble_uniform(lay, faces, out.uv);
       Timing t;
       attempts.push_back(solve_spd(st, lay, faces, scratch, DiskMapSolution::tutte, cancel, out, t, nullptr));
     }
@@ -552,19 +605,40 @@ DiskMap map_to_disk_with_laplacian(const DiskMapInput& input, const Eigen::Spars
   const Layout lay = make_layout(input);
   if (laplacian.rows() != lay.n || laplacian.cols() != lay.n)
     throw InternalError("map_to_disk_with_laplacian: the Laplacian is not vertex_count x vertex_count");
-  return run(input, lay, laplacian, mean_value_fallback, 0.0, cancel, t_start);
+  return run(
+      input, lay, [&](const std::vector<Point2>& uv) { return extract(laplacian, lay, uv); }, mean_value_fallback, 0.0,
+      cancel, t_start);
 }
 
 DiskMap map_to_disk(const DiskMapInput& input, MapMethod method, const CancelToken* cancel) {
   const auto t_start = Clock::now();
   const Layout lay = make_layout(input);
   check_cancel(cancel);
+  const std::vector<Triangle>& faces = *input.faces;
+  if (method == MapMethod::tutte)
+    return run(
+        input, lay, [&](const std::vector<Point2>& uv) { return assemble_uniform(lay, faces, uv); }, false, 0.0,
+        cancel, t_start);
+
   auto t0 = Clock::now();
+  const std::vector<std::array<double, 3>> cot = corner_cotangents(*input.vertices, faces);
   int non_finite = 0;
-  const SpMat L = method == MapMethod::tutte ? uniform_laplacian(lay.n, *input.faces)
-                                             : cotan_laplacian(*input.vertices, *input.faces, &non_finite);
+  std::vector<char> finite(faces.size(), 1);
+  for (std::size_t f = 0; f < faces.size(); ++f)
+    if (!(std::isfinite(cot[f][0]) && std::isfinite(cot[f][1]) && std::isfinite(cot[f][2]))) {
+      finite[f] = 0;
+      ++non_finite;
+    }
   const double assemble_ms = ms_since(t0);
-  DiskMap out = run(input, lay, L, method == MapMethod::harmonic, assemble_ms, cancel, t_start);
+  // The same weights as laplacian_from_cotangents: cot / 2 per face and edge, 1/2 for a non-finite face.
+  DiskMap out = run(
+      input, lay,
+      [&](const std::vector<Point2>& uv) {
+        return assemble_symmetric(lay, faces, uv, [&](std::size_t f, int k) {
+          return finite[f] ? 0.5 * cot[f][static_cast<std::size_t>(k)] : 0.5;
+        });
+      },
+      true, assemble_ms, cancel, t_start);
   out.numerically_degenerate_faces = non_finite;
   return out;
 }
