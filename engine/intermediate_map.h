@@ -30,9 +30,12 @@
 //
 // What cannot be recovered: exponential crowding past the resolution of doubles. Example: a tube of 6
 // vertices per ring closed at one end, boundary at the open end; each ring's image is ~2.5x smaller than
-// the previous one and sits at an offset of ~1e-16 (the rounding of the boundary positions' mean), so
-// from about ring 75 on the exact map's rings are closer together than adjacent doubles. Any harmonic
-// or Tutte map in double precision folds there (tests: IntermediateMapCrowding).
+// the previous one and sits at an offset of ~1e-16 (the rounding of the boundary positions' mean). With
+// 80 rings the Tutte map is flip-free (the cotangent map shrinks faster, folds, and the Tutte re-map
+// replaces it); with 120 the rings past ~75 (image radius
+// ~1e-29, where the refined solve's error floor lies) fold, and a few rings further the exact map's rings
+// are closer together than adjacent doubles near the offset (~1e-32 apart), so no harmonic or Tutte map
+// stored in doubles can be flip-free. The stage reports it (tests: IntermediateMapCrowding).
 //
 // Boundary positions are written, never solved: uv[loop[k]] == disk_boundary_point(k, n) bit for bit.
 #pragma once
