@@ -15,6 +15,7 @@
 #include "engine/classify.h"
 #include "engine/error.h"
 #include "server/json_codec.h"
+#include "server/serve_command.h"
 
 namespace lipmap::cli {
 
@@ -121,8 +122,8 @@ int run(int argc, const char* const* argv, std::istream& in, std::ostream& out, 
 
     CLI::App* map_cmd = app.add_subcommand("map", "Map a mesh onto a boundary polygon (not implemented yet)");
     map_cmd->allow_extras();
-    CLI::App* serve_cmd = app.add_subcommand("serve", "Run the HTTP service (not implemented yet)");
-    serve_cmd->allow_extras();
+    ServeOptions serve_options;
+    CLI::App* serve_cmd = add_serve_subcommand(app, serve_options);
 
     try {
       app.parse(argc, argv);
@@ -143,7 +144,7 @@ int run(int argc, const char* const* argv, std::istream& in, std::ostream& out, 
 
     if (classify_cmd->parsed()) return classify_command(classify_file, pretty, in, out, err);
     if (map_cmd->parsed()) return not_implemented("map", "the remapping engine", err);
-    if (serve_cmd->parsed()) return not_implemented("serve", "the HTTP service", err);
+    if (serve_cmd->parsed()) return serve_command(serve_options, out, err);
     error_line(err, "usage", "no subcommand given (run 'lipmap --help')");
     return kExitUsageError;
   } catch (const std::bad_alloc&) {

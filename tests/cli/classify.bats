@@ -276,8 +276,13 @@ triangulation_is_valid() {
   lipmap map mesh.obj
   expect_error 2 not_implemented
   [[ "$stderr" == *"not implemented yet"* ]]
-  lipmap serve --port 8080
-  expect_error 2 not_implemented
+}
+
+@test "serve: a bad setting is a usage error, exit 2 (the service itself is tested in tests/http)" {
+  lipmap serve --port 99999
+  expect_error 2 usage
+  lipmap serve --port 0 --deadline 0
+  expect_error 2 usage
 }
 
 @test "--help: exit 0, lists the subcommands" {

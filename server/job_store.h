@@ -1,0 +1,147 @@
+// Asynchronous jobs of `lipmap serve` (POST /v1/jobs): state, progress by engine stage, cancellation, and
+// the finished results, kept for a configurable time and count and then dropped. A dropped or deleted
+// job leaves a tombstone so that its id answers 410 Gone rather than 404 (the tombstones are bounded too).
+#pragma once
+
+#include <chrono>
+#include <cstddef>
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <unordered_map>
+#include <unordered_set>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "engine/cancel.h"
+#include "engine/pipeline.h"
+
+namespace lipmap::server {
+
+enum class JobState { queued, running, succeeded, failed, cancelled };
+const char* to_string(JobState state);
+inline bool is_final(JobState s) { return s == JobState::succeeded || s == JobState::failed || s == JobState::cancelled; }
+
+// Why a token was cancelled by the service (the engine only sees Cancelled).
+enum class CancelReason { none, client, shutdown };
+
+// Progress of one engine stage as reported by lipmap::ProgressFn.
+struct StageProgress {
+  std::string stage;
+  double fraction = 0;  // 0..1
+  bool done = false;
+  double ms = 0;        // wall time so far (final once done)
+};
+
+// What GET /v1/jobs/{id} shows: a consistent copy taken under the job's lock.
+struct JobSnapshot {
+  std::string id;
+  JobState state = JobState::queued;
+  std::chrono::system_clock::time_point created_at, started_at, finished_at;
+  bool started = false, finished = false;
+  bool cancel_requested = false;
+  std::vector<StageProgress> stages;  // in pipeline order, only stages that started
+  std::string current_stage;          // while running
+  double fraction = 0;                // overall, 0..1
+  std::optional<nlohmann::ordered_json> problem;  // failed / cancelled: the problem answer
+  std::size_t result_bytes = 0;
+};
+
+class Job {
+public:
+  using SteadyClock = std::chrono::steady_clock;
+  explicit Job(std::string id);
+
+  const std::string& id() const { return id_; }
+  // The token the worker passes to the engine. Its deadline is set once, before the job is queued.
+  CancelToken& token() { return token_; }
+
+  // Cancels the token; returns false when the job had already finished.
+  bool request_cancel(CancelReason reason);
+  CancelReason cancel_reason() const;
+
+  // Worker side. mark_running returns false when the job was cancelled while queued (then it is final).
+  bool mark_running();
+  void report(Stage stage, double fraction);  // a lipmap::ProgressFn
+  void succeed(std::shared_ptr<const std::string> result_json, std::shared_ptr<const ParametrizeResult> result);
+  void fail(JobState final_state, nlohmann::ordered_json problem);
+
+  JobSnapshot snapshot() const;
+  JobState state() const;
+  SteadyClock::time_point finished_steady() const;
+  std::shared_ptr<const std::string> result_json() const;
+  std::shared_ptr<const ParametrizeResult> result() const;
+
+private:
+  const std::string id_;
+  CancelToken token_;
+  mutable std::mutex mutex_;
+  JobState state_ = JobState::queued;
+  CancelReason cancel_reason_ = CancelReason::none;
+  std::chrono::system_clock::time_point created_at_, started_at_, finished_at_;
+  SteadyClock::time_point stage_started_{}, finished_steady_{};
+  std::vector<StageProgress> stages_;
+  std::optional<nlohmann::ordered_json> problem_;
+  std::shared_ptr<const std::string> result_json_;
+  std::shared_ptr<const ParametrizeResult> result_;
+};
+
+class JobStore {
+public:
+  using Clock = std::chrono::steady_clock;
+  struct Limits {
+    std::size_t max_finished = 64;               // finished jobs kept; the oldest finished is evicted first
+    std::chrono::milliseconds ttl{15 * 60 * 1000};  // how long a finished job is kept
+    std::size_t max_tombstones = 100000;         // ids remembered after they were dropped (410 vs 404)
+  };
+  // on_dropped(reason) is called (outside the lock) for every job dropped: "expired", "evicted", "deleted".
+  JobStore(Limits limits, std::function<void(const std::string&)> on_dropped = {});
+
+  std::shared_ptr<Job> create();
+  // Undoes create() for a job that was never queued (queue full): no tombstone.
+  void discard(const std::string& id);
+
+  enum class Lookup { found, gone, unknown };
+  struct Found {
+    Lookup lookup = Lookup::unknown;
+    std::shared_ptr<Job> job;  // when found
+    std::string gone_reason;   // when gone: expired, evicted or deleted
+  };
+  Found find(const std::string& id);
+
+  // Drops a finished job (DELETE on a finished job); false when it is not held.
+  bool remove(const std::string& id);
+
+  // Call when a job reached a final state: starts its retention clock and enforces the count limit.
+  void finished(const std::shared_ptr<Job>& job);
+  // Drops finished jobs older than the ttl. Called on every lookup and by the server's housekeeping.
+  void sweep();
+
+  std::map<std::string, std::size_t> counts_by_state() const;
+  // Every job not yet final (for shutdown).
+  std::vector<std::shared_ptr<Job>> unfinished() const;
+  const Limits& limits() const { return limits_; }
+
+private:
+  std::vector<std::string> sweep_locked(Clock::time_point now);  // returns the reasons of the drops
+  void drop_locked(const std::string& id, const std::string& reason);
+
+  const Limits limits_;
+  std::function<void(const std::string&)> on_dropped_;
+  mutable std::mutex mutex_;
+  std::unordered_map<std::string, std::shared_ptr<Job>> jobs_;
+  std::deque<std::pair<std::string, Clock::time_point>> finished_order_;  // (id, finished), oldest first
+  std::unordered_map<std::string, std::string> tombstones_;               // id -> reason
+  std::deque<std::string> tombstone_order_;
+};
+
+// 32 lowercase hex digits from a CSPRNG-seeded generator: unguessable enough that job ids are capabilities.
+std::string new_job_id();
+bool looks_like_job_id(const std::string& s);
+
+}  // namespace lipmap::server

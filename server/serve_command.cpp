@@ -1,0 +1,143 @@
+#include "server/serve_command.h"
+
+#include <pthread.h>
+#include <signal.h>
+
+#include <cstdlib>
+#include <exception>
+#include <memory>
+#include <ostream>
+#include <stdexcept>
+#include <thread>
+
+#include <CLI/CLI.hpp>
+#include <spdlog/sinks/stdout_sinks.h>
+#include <spdlog/spdlog.h>
+
+#include "server/cli.h"
+
+namespace lipmap::cli {
+
+CLI::App* add_serve_subcommand(CLI::App& app, ServeOptions& o) {
+  server::ServerConfig& c = o.config;
+  CLI::App* cmd = app.add_subcommand(
+      "serve", "Run the HTTP service: POST /v1/parametrize, /v1/polygons/classify, /v1/jobs, ... (see /v1/openapi.json)");
+  cmd->add_option("--host", c.host, "Address to listen on")->envname("LIPMAP_HOST")->capture_default_str();
+  cmd->add_option("--port", c.port, "Port to listen on; 0 picks a free one (logged)")
+      ->envname("LIPMAP_PORT")
+      ->check(CLI::Range(0, 65535))
+      ->capture_default_str();
+  cmd->add_option("--workers", c.workers, "Engine worker threads; 0 = one per core")
+      ->envname("LIPMAP_WORKERS")
+      ->capture_default_str();
+  cmd->add_option("--queue", c.queue_capacity, "Tasks that may wait for a worker; beyond, 503 + Retry-After")
+      ->envname("LIPMAP_QUEUE")
+      ->capture_default_str();
+  cmd->add_option("--http-threads", c.http_threads, "Connection threads; 0 = workers + queue + 8")
+      ->envname("LIPMAP_HTTP_THREADS")
+      ->capture_default_str();
+  cmd->add_option("--max-body-bytes", c.max_body_bytes, "Largest request body; beyond, 413")
+      ->envname("LIPMAP_MAX_BODY_BYTES")
+      ->capture_default_str();
+  cmd->add_option("--max-vertices", c.max_vertices, "Largest mesh, in vertices; beyond, 422 mesh_too_large")
+      ->envname("LIPMAP_MAX_VERTICES")
+      ->capture_default_str();
+  cmd->add_option("--max-faces", c.max_faces, "Largest mesh, in faces; beyond, 422 mesh_too_large")
+      ->envname("LIPMAP_MAX_FACES")
+      ->capture_default_str();
+  cmd->add_option("--max-polygon-vertices", c.max_polygon_vertices,
+                  "Largest boundary polygon; beyond, 422 polygon_too_large")
+      ->envname("LIPMAP_MAX_POLYGON_VERTICES")
+      ->capture_default_str();
+  cmd->add_option("--deadline", c.deadline_seconds,
+                  "Seconds a request or job may take from its arrival; then it is cancelled (504, or job failed)")
+      ->envname("LIPMAP_DEADLINE")
+      ->capture_default_str();
+  cmd->add_option("--result-ttl", c.result_ttl_seconds, "Seconds a finished job is kept; then 410 Gone")
+      ->envname("LIPMAP_RESULT_TTL")
+      ->capture_default_str();
+  cmd->add_option("--max-results", c.max_results, "Finished jobs kept (oldest dropped first; then 410 Gone)")
+      ->envname("LIPMAP_MAX_RESULTS")
+      ->capture_default_str();
+  cmd->add_option("--grace", c.grace_seconds,
+                  "Seconds in-flight requests may finish after SIGTERM/SIGINT before they are cancelled")
+      ->envname("LIPMAP_GRACE")
+      ->capture_default_str();
+  cmd->add_option("--log-level", o.log_level, "trace, debug, info, warn, error or off")
+      ->envname("LIPMAP_LOG_LEVEL")
+      ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}))
+      ->capture_default_str();
+  cmd->add_flag("--test-hooks", c.test_hooks,
+                "Tests only: honour X-Lipmap-Test-Delay-Ms and X-Lipmap-Test-Fault request headers")
+      ->envname("LIPMAP_TEST_HOOKS")
+      ->group("Testing");
+  return cmd;
+}
+
+namespace {
+
+void error_line(std::ostream& err, const std::string& code, const std::string& message) {
+  std::string line = "lipmap: error: " + code + ": " + message;
+  for (char& ch : line)
+    if (static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f) ch = ' ';
+  err << line << '\n';
+  err.flush();
+}
+
+}  // namespace
+
+int serve_command(const ServeOptions& options, std::ostream& out, std::ostream& err) {
+  (void)out;
+  server::ServerConfig config;
+  try {
+    config = server::resolve(options.config);
+  } catch (const std::invalid_argument& e) {
+    error_line(err, "usage", std::string(e.what()) + " (run 'lipmap serve --help')");
+    return kExitUsageError;
+  }
+
+  // Signals are taken by sigwait below, never by a handler: block them before any thread starts so that
+  // every thread inherits the mask. A peer that closes its socket must not kill the process either.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGTERM);
+  sigaddset(&signals, SIGINT);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+  signal(SIGPIPE, SIG_IGN);
+
+  auto sink = std::make_shared<spdlog::sinks::stderr_sink_mt>();
+  auto logger = std::make_shared<spdlog::logger>("lipmap", sink);
+  logger->set_pattern("%v");
+  logger->set_level(spdlog::level::from_str(options.log_level));
+  logger->flush_on(spdlog::level::trace);
+
+  std::unique_ptr<server::HttpServer> server;
+  try {
+    server = std::make_unique<server::HttpServer>(config, logger);
+    server->bind();
+    server->start();
+  } catch (const std::runtime_error& e) {
+    error_line(err, "listen_failed", e.what());
+    return kExitInputError;
+  }
+
+  int signal_number = 0;
+  sigwait(&signals, &signal_number);
+  server->log_signal(signal_number == SIGTERM ? "SIGTERM" : "SIGINT", false);
+  // A second signal while draining: stop waiting for in-flight work.
+  std::thread([signals, srv = server.get()] {
+    int again = 0;
+    sigwait(&signals, &again);
+    srv->log_signal(again == SIGTERM ? "SIGTERM" : "SIGINT", true);
+    srv->cancel_all();
+  }).detach();
+
+  const bool clean = server->shutdown();
+  logger->flush();
+  if (!clean) std::_Exit(kExitOk);  // engine threads ignored their cancellation: do not wait on them
+  // The detached signal thread still waits in sigwait; the server object must outlive it.
+  server.release();
+  return kExitOk;
+}
+
+}  // namespace lipmap::cli

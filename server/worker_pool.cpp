@@ -1,0 +1,98 @@
+#include "server/worker_pool.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace lipmap::server {
+
+WorkerPool::WorkerPool(std::size_t workers, std::size_t queue_capacity) : capacity_(queue_capacity) {
+  workers = std::max<std::size_t>(workers, 1);
+  threads_.reserve(workers);
+  for (std::size_t i = 0; i < workers; ++i) threads_.emplace_back([this] { run(); });
+}
+
+WorkerPool::~WorkerPool() { join(); }
+
+WorkerPool::Submit WorkerPool::submit(Task task) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (closed_) return Submit::closed;
+    // Idle workers take queued tasks at once: the queue may hold `capacity_` tasks beyond those, so that
+    // "waiting for a worker" never exceeds the capacity, even before an idle worker has woken up.
+    const std::size_t idle = threads_.size() > running_ ? threads_.size() - running_ : 0;
+    if (queue_.size() + 1 > capacity_ + idle) return Submit::queue_full;
+    queue_.push_back(std::move(task));
+  }
+  work_cv_.notify_one();
+  return Submit::accepted;
+}
+
+void WorkerPool::run() {
+  for (;;) {
+    Task task;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      work_cv_.wait(lock, [this] { return closed_ || !queue_.empty(); });
+      if (queue_.empty()) return;  // closed and drained
+      task = std::move(queue_.front());
+      queue_.pop_front();
+      ++running_;
+    }
+    const auto start = Clock::now();
+    try {
+      task();
+    } catch (...) {
+      // Tasks catch their own errors; this only keeps a worker alive if one does not.
+    }
+    const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      --running_;
+      mean_seconds_ = mean_seconds_ == 0 ? seconds : 0.8 * mean_seconds_ + 0.2 * seconds;
+      if (running_ == 0 && queue_.empty()) idle_cv_.notify_all();
+    }
+  }
+}
+
+void WorkerPool::close() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    closed_ = true;
+  }
+  work_cv_.notify_all();
+}
+
+bool WorkerPool::wait_idle(Clock::time_point deadline) {
+  std::unique_lock<std::mutex> lock(mutex_);
+  return idle_cv_.wait_until(lock, deadline, [this] { return running_ == 0 && queue_.empty(); });
+}
+
+void WorkerPool::join() {
+  close();
+  for (std::thread& t : threads_)
+    if (t.joinable()) t.join();
+}
+
+std::size_t WorkerPool::queue_depth() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return queue_.size();
+}
+
+std::size_t WorkerPool::busy() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return running_;
+}
+
+double WorkerPool::mean_task_seconds() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return mean_seconds_;
+}
+
+int WorkerPool::retry_after_seconds() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  const double pending = static_cast<double>(queue_.size() + running_);
+  const double seconds = pending * mean_seconds_ / static_cast<double>(threads_.size());
+  return static_cast<int>(std::clamp(std::ceil(seconds), 1.0, 60.0));
+}
+
+}  // namespace lipmap::server

@@ -1,0 +1,175 @@
+#!/usr/bin/env node
+// Builds request bodies for the HTTP tests and benchmarks (test-only; never shipped).
+//
+//   node make_request.js grid N BOUNDARY [--z bump|flat] [--method tutte|harmonic] [--no-refine]
+//       An N x N-vertex grid on [0,1]^2 (2 (N-1)^2 triangles), lifted to a bump in 3D unless --z flat,
+//       with boundary positions for its boundary loop (interior on the left, starting at vertex 0):
+//         square     the grid's own outline scaled by 2: simple
+//         circle     the loop spread evenly on a circle: simple (convex)
+//         spiral     the image of the grid under (x, y) -> (2 - y) (cos 2.5 pi x, sin 2.5 pi x), an annulus
+//                    sector wound 1.25 turns: self-overlapping by construction (locally injective, not injective)
+//         clockwise  the square traversed backwards: not self-overlapping (turning number -1)
+//         figure8    a figure-eight curve: not self-overlapping (turning number 0)
+//   node make_request.js mesh FILE.off|FILE.obj [circle]
+//       A mesh file (triangles only), with its boundary loop spread on a circle. The loop is found here,
+//       independently of the engine.
+//   node make_request.js polygon BOUNDARY N
+//       A classify body {"polygon": ...} with the same boundary shapes, N vertices.
+// The body is written to standard output as one line of JSON.
+"use strict";
+
+const fs = require("fs");
+
+function grid(n, zMode) {
+  const vertices = [];
+  const faces = [];
+  for (let j = 0; j < n; j++)
+    for (let i = 0; i < n; i++) {
+      const x = i / (n - 1), y = j / (n - 1);
+      const z = zMode === "flat" ? 0 : 0.25 * Math.sin(Math.PI * x) * Math.sin(Math.PI * y);
+      vertices.push([x, y, z]);
+    }
+  const v = (i, j) => j * n + i;
+  for (let j = 0; j + 1 < n; j++)
+    for (let i = 0; i + 1 < n; i++) {
+      // alternate the diagonal so that the mesh is not biased in one direction
+      if ((i + j) % 2 === 0) {
+        faces.push([v(i, j), v(i + 1, j), v(i + 1, j + 1)]);
+        faces.push([v(i, j), v(i + 1, j + 1), v(i, j + 1)]);
+      } else {
+        faces.push([v(i, j), v(i + 1, j), v(i, j + 1)]);
+        faces.push([v(i + 1, j), v(i + 1, j + 1), v(i, j + 1)]);
+      }
+    }
+  return { vertices, faces };
+}
+
+// The boundary loop of a triangle mesh with one boundary: directed edges whose twin is missing, chained,
+// interior on the left (the faces' orientation), starting at the lowest vertex index.
+function boundaryLoop(faces) {
+  const directed = new Set();
+  for (const f of faces) for (let c = 0; c < 3; c++) directed.add(f[c] + "," + f[(c + 1) % 3]);
+  const next = new Map();
+  for (const f of faces)
+    for (let c = 0; c < 3; c++) {
+      const a = f[c], b = f[(c + 1) % 3];
+      if (!directed.has(b + "," + a)) next.set(a, b);
+    }
+  if (next.size === 0) throw new Error("closed mesh: no boundary");
+  const start = Math.min(...next.keys());
+  const loop = [start];
+  for (let v = next.get(start); v !== start; v = next.get(v)) {
+    if (v === undefined || loop.length > next.size) throw new Error("boundary is not one loop");
+    loop.push(v);
+  }
+  if (loop.length !== next.size) throw new Error("more than one boundary loop");
+  return loop;
+}
+
+function positionsFor(kind, loop, vertices) {
+  const n = loop.length;
+  switch (kind) {
+    case "square":
+      return loop.map((v) => [2 * vertices[v][0], 2 * vertices[v][1]]);
+    case "circle":
+      return loop.map((_, k) => [Math.cos((2 * Math.PI * k) / n), Math.sin((2 * Math.PI * k) / n)]);
+    case "spiral":
+      return loop.map((v) => {
+        const [x, y] = vertices[v];
+        const r = 2 - y, a = 2.5 * Math.PI * x;
+        return [r * Math.cos(a), r * Math.sin(a)];
+      });
+    case "clockwise":
+      return loop.map((v) => [2 * vertices[v][0], -2 * vertices[v][1]]);
+    case "figure8":
+      return loop.map((_, k) => {
+        const t = (2 * Math.PI * k) / n;
+        return [Math.sin(2 * t), Math.sin(t)];
+      });
+    default:
+      throw new Error("unknown boundary " + kind);
+  }
+}
+
+function polygon(kind, n) {
+  const circle = [...Array(n).keys()].map((k) => [Math.cos((2 * Math.PI * k) / n), Math.sin((2 * Math.PI * k) / n)]);
+  switch (kind) {
+    case "circle":
+      return circle;
+    case "clockwise":
+      return circle.map(([x, y]) => [x, -y]);
+    case "figure8":
+      return [...Array(n).keys()].map((k) => {
+        const t = (2 * Math.PI * k) / n;
+        return [Math.sin(2 * t), Math.sin(t)];
+      });
+    case "spiral": {
+      // an annulus sector wound 1.25 turns: outer arc out, inner arc back
+      const m = Math.max(2, Math.floor(n / 2));
+      const out = [];
+      for (let k = 0; k < m; k++) { const a = (2.5 * Math.PI * k) / (m - 1); out.push([2 * Math.cos(a), 2 * Math.sin(a)]); }
+      for (let k = m - 1; k >= 0; k--) { const a = (2.5 * Math.PI * k) / (m - 1); out.push([Math.cos(a), Math.sin(a)]); }
+      return out;
+    }
+    default:
+      throw new Error("unknown polygon " + kind);
+  }
+}
+
+function readMesh(file) {
+  const text = fs.readFileSync(file, "utf8");
+  const vertices = [], faces = [];
+  if (/\.off$/i.test(file)) {
+    const tokens = text.split(/\r?\n/).map((l) => l.replace(/#.*/, "").trim()).filter((l) => l.length).join(" ").split(/\s+/);
+    let p = 0;
+    if (/^N?OFF$/.test(tokens[p])) p++;
+    const nv = +tokens[p++], nf = +tokens[p++];
+    p++;
+    for (let i = 0; i < nv; i++) vertices.push([+tokens[p++], +tokens[p++], +tokens[p++]]);
+    for (let i = 0; i < nf; i++) {
+      const k = +tokens[p++];
+      const f = [];
+      for (let c = 0; c < k; c++) f.push(+tokens[p++]);
+      faces.push(f);
+    }
+  } else {
+    for (const line of text.split(/\r?\n/)) {
+      const t = line.trim().split(/\s+/);
+      if (t[0] === "v") vertices.push([+t[1], +t[2], +t[3]]);
+      else if (t[0] === "f") faces.push(t.slice(1).map((s) => parseInt(s.split("/")[0], 10) - 1));
+    }
+  }
+  return { vertices, faces };
+}
+
+function main(argv) {
+  const [what, ...rest] = argv;
+  const flag = (name) => rest.includes(name);
+  const value = (name, dflt) => (rest.includes(name) ? rest[rest.indexOf(name) + 1] : dflt);
+  let body;
+  if (what === "grid") {
+    const n = parseInt(rest[0], 10);
+    const kind = rest[1] || "square";
+    const mesh = grid(n, value("--z", "bump"));
+    const loop = boundaryLoop(mesh.faces);
+    body = { mesh, boundary: { positions: positionsFor(kind, loop, mesh.vertices) } };
+  } else if (what === "mesh") {
+    const mesh = readMesh(rest[0]);
+    const loop = boundaryLoop(mesh.faces);
+    body = { mesh, boundary: { positions: positionsFor(rest[1] || "circle", loop, mesh.vertices) } };
+  } else if (what === "polygon") {
+    process.stdout.write(JSON.stringify({ polygon: polygon(rest[0], parseInt(rest[1] || "16", 10)) }) + "\n");
+    return;
+  } else {
+    console.error("usage: make_request.js grid N BOUNDARY | mesh FILE [circle] | polygon BOUNDARY N");
+    process.exit(2);
+  }
+  const options = {};
+  if (value("--method")) options.method = value("--method");
+  if (flag("--no-refine")) options.refine = false;
+  if (Object.keys(options).length) body.options = options;
+  process.stdout.write(JSON.stringify(body) + "\n");
+}
+
+module.exports = { grid, boundaryLoop, positionsFor };
+if (require.main === module) main(process.argv.slice(2));
