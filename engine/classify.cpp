@@ -20,6 +20,7 @@
 
 #include "engine/detail/ear_reduction.h"
 #include "engine/detail/plane_angles.h"
+#include "engine/detail/polygon_turns.h"
 #include "engine/detail/shor_van_wyk.h"
 
 namespace lipmap {
@@ -30,38 +31,6 @@ using Clock = std::chrono::steady_clock;
 
 double ms_since(Clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-}
-
-// Which half-plane of directions an edge a -> b points into: upper is [0, pi), lower is [pi, 2 pi).
-bool points_up(const Pt& a, const Pt& b) {
-  const int dy = detail::compare_coord(b.y(), a.y());
-  return dy > 0 || (dy == 0 && b.x() > a.x());
-}
-
-// Number of full counterclockwise turns of the edge direction around P, counted exactly: each turn at a
-// vertex is in [-pi, pi) (a spike, where the polygon doubles back, is the clockwise half turn because its
-// interior angle is 2 pi), and the direction crosses angle 0 upwards on left turns from the lower to the
-// upper half-plane and downwards on right turns from the upper to the lower one.
-int turning_number(const std::vector<Pt>& p) {
-  const int n = static_cast<int>(p.size());
-  int turns = 0;
-  for (int i = 0; i < n; ++i) {
-    const Pt &a = p[(i + n - 1) % n], &b = p[i], &c = p[(i + 1) % n];
-    const bool up_in = points_up(a, b), up_out = points_up(b, c);
-    const int o = detail::orient(a, b, c);
-    if (o > 0 && !up_in && up_out) ++turns;
-    if (o < 0 && up_in && !up_out) --turns;
-    if (o == 0 && detail::same_ray(b, a, c) && up_in) --turns;  // spike: v_{i+1} back towards v_{i-1}
-  }
-  return turns;
-}
-
-// A spike vertex (v_{i+1} on the ray towards v_{i-1}) has interior angle 2 pi: zero sweep plus one turn.
-std::vector<int> spike_turns(const std::vector<Pt>& p) {
-  const int n = static_cast<int>(p.size());
-  std::vector<int> spikes(n);
-  for (int i = 0; i < n; ++i) spikes[i] = detail::sector(p[i], p[(i + 1) % n], p[(i + n - 1) % n]) == 0;
-  return spikes;
 }
 
 // Full rotation index at every vertex of a triangulation, from the exact sweep of its fan of triangles
@@ -176,8 +145,8 @@ Classification classify(const BoundaryPolygon& polygon, const CancelToken* cance
   for (const Point2& v : polygon.vertices) p.emplace_back(v.x, v.y);
 
   Classification out;
-  out.turning_number = turning_number(p);
-  const std::vector<int> spikes = spike_turns(p);
+  out.turning_number = detail::turning_number(p);
+  const std::vector<int> spikes = detail::spike_turns(p);
   const std::vector<int>* prescribed = polygon.rotation_indices ? &*polygon.rotation_indices : nullptr;
   const int t = out.turning_number;
 

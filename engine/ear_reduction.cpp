@@ -76,8 +76,8 @@ private:
 
 class EarClipper {
 public:
-  EarClipper(const std::vector<Pt>& p, std::vector<int> turns)
-      : p_(p), n_(static_cast<int>(p.size())), turns_(std::move(turns)), next_(n_), prev_(n_),
+  EarClipper(const std::vector<Pt>& p, std::vector<int> turns, const std::function<bool(int, int, int)>* allowed)
+      : allowed_(allowed), p_(p), n_(static_cast<int>(p.size())), turns_(std::move(turns)), next_(n_), prev_(n_),
         alive_(n_, 1), seen_(n_, -1), version_(n_, 0), grid_(p) {
     for (int v = 0; v < n_; ++v) {
       next_[v] = (v + 1) % n_;
@@ -137,6 +137,7 @@ private:
   bool clip_if_ear(int v) {
     const int a = prev_[v], b = next_[v];
     if (turns_[v] != 0) return false;
+    if (allowed_ && !(*allowed_)(a, v, b)) return false;
     const Pt &pa = p_[a], &pv = p_[v], &pb = p_[b];
     if (orient(pa, pv, pb) <= 0) return false;
     // Remaining prescribed angles at a and b: the ear takes the sweep v -> b at a and a -> v at b.
@@ -178,6 +179,7 @@ private:
     return !blocked;
   }
 
+  const std::function<bool(int, int, int)>* allowed_;
   const std::vector<Pt>& p_;
   int n_, size_ = 0, query_ = 0;
   std::vector<int> turns_, next_, prev_;
@@ -190,8 +192,9 @@ private:
 
 }  // namespace
 
-EarReduction clip_ears(const std::vector<Pt>& polygon, std::vector<int> turns, const CancelToken* cancel) {
-  EarClipper clipper(polygon, std::move(turns));
+EarReduction clip_ears(const std::vector<Pt>& polygon, std::vector<int> turns, const CancelToken* cancel,
+                       const std::function<bool(int, int, int)>* allowed) {
+  EarClipper clipper(polygon, std::move(turns), allowed);
   return clipper.run(cancel);
 }
 

@@ -15,6 +15,9 @@
 #include <algorithm>
 #include <cstdint>
 
+#include "engine/detail/ear_reduction.h"
+#include "engine/detail/polygon_turns.h"
+
 namespace lipmap::detail {
 namespace {
 
@@ -37,8 +40,8 @@ using Mask = std::uint64_t;  // bit r_i * width + r_j; width = max turns + 1 <= 
 
 class Table {
 public:
-  Table(const std::vector<Pt>& p, const std::vector<int>* turns)
-      : p_(p), m_(static_cast<int>(p.size())), turns_(turns), from_(m_), to_(m_) {
+  Table(const std::vector<Pt>& p, const std::vector<int>* turns, const AllowedTriangle* allowed)
+      : p_(p), m_(static_cast<int>(p.size())), turns_(turns), allowed_(allowed), from_(m_), to_(m_) {
     if (turns_) width_ = *std::max_element(turns_->begin(), turns_->end()) + 1;
     // With all turns zero every feasible entry holds the single pair (0, 0): the bit rows say it all.
     if (width_ > 1) masks_.assign(static_cast<std::size_t>(m_) * (m_ - 1) / 2, 0);
@@ -124,6 +127,10 @@ private:
     return false;
   }
 
+  bool usable(int i, int k, int j) const {
+    return orient(p_[i], p_[k], p_[j]) > 0 && (!allowed_ || (*allowed_)(i, k, j));
+  }
+
   // Extra full turns created at i, k and j by gluing P_{i,k}, triangle (i,k,j) and P_{k,j} (App. B).
   Glue glue(int i, int k, int j) const {
     Glue g;
@@ -183,7 +190,7 @@ private:
     if (cap_j < 0) return 0;
     Mask mask = 0;
     auto add_split = [&](int k) {
-      if (orient(p_[i], p_[k], p_[j]) <= 0) return false;
+      if (!usable(i, k, j)) return false;
       const Glue g = glue(i, k, j);
       for_each_glued_pair(i, k, j, g, [&](int ri, int rj, int, int, int, int) {
         if (ri <= cap_i && rj <= cap_j) mask |= bit(ri, rj);
@@ -200,7 +207,7 @@ private:
 
   Mask free_entry(int i, int j) {
     auto positive = [&](int k) {
-      if (orient(p_[i], p_[k], p_[j]) <= 0) return false;
+      if (!usable(i, k, j)) return false;
       split_hint_[i] = k;
       return true;
     };
@@ -217,7 +224,7 @@ private:
 
   // Does k split P_{i,j} so that its ends get exactly ri and rj turns? Fills s when it does.
   bool find_split(int i, int k, int j, int ri, int rj, Split& s) const {
-    if (orient(p_[i], p_[k], p_[j]) <= 0) return false;
+    if (!usable(i, k, j)) return false;
     if (!turns_) {
       s = {k, 0, 0, 0, 0};
       return true;
@@ -232,6 +239,7 @@ private:
   const std::vector<Pt>& p_;
   int m_;
   const std::vector<int>* turns_;
+  const AllowedTriangle* allowed_;
   int width_ = 1;
   BitMatrix from_;  // row i: j such that P_{i,j} is feasible
   BitMatrix to_;    // row j: i such that P_{i,j} is feasible
@@ -242,13 +250,44 @@ private:
 }  // namespace
 
 ShorVanWykResult shor_van_wyk(const std::vector<Pt>& polygon, const std::vector<int>* turns,
-                              const CancelToken* cancel) {
+                              const CancelToken* cancel, const AllowedTriangle* allowed) {
   ShorVanWykResult result;
   if (polygon.size() < 3) return result;
-  Table table(polygon, turns);
+  Table table(polygon, turns, allowed);
   result.table_bytes = table.bytes();
   if (table.fill(cancel)) result.triangles = table.triangles();
   return result;
+}
+
+std::optional<std::vector<Triangle>> triangulate_self_overlapping(const std::vector<Pt>& polygon,
+                                                                  const AllowedTriangle* allowed) {
+  if (polygon.size() < 3) return std::nullopt;
+  if (polygon.size() == 3) {
+    if (orient(polygon[0], polygon[1], polygon[2]) <= 0 || (allowed && !(*allowed)(0, 1, 2))) return std::nullopt;
+    return std::vector<Triangle>{{0, 1, 2}};
+  }
+  if (turning_number(polygon) != 1) return std::nullopt;  // sum R_i = t - 1 must be 0
+  const std::vector<int> turns = spike_turns(polygon);
+  // Fast path: clip safe ears first (App. C), then the table on what is left. Every ear found is a valid
+  // triangle of the answer, so a success is final; a failure is re-decided by the table on the whole
+  // polygon, since with forbidden triangles an ear clipped early could in principle be the wrong choice.
+  if (polygon.size() > 6) {
+    EarReduction reduced = clip_ears(polygon, turns, nullptr, allowed);
+    if (!reduced.ears.empty()) {
+      std::vector<Pt> rest;
+      for (int v : reduced.remaining) rest.push_back(polygon[v]);
+      const AllowedTriangle mapped = [&](int i, int k, int j) {
+        return !allowed || (*allowed)(reduced.remaining[i], reduced.remaining[k], reduced.remaining[j]);
+      };
+      if (auto tri = shor_van_wyk(rest, &reduced.turns, nullptr, &mapped).triangles) {
+        std::vector<Triangle> all = std::move(reduced.ears);
+        for (const Triangle& t : *tri)
+          all.push_back({reduced.remaining[t[0]], reduced.remaining[t[1]], reduced.remaining[t[2]]});
+        return all;
+      }
+    }
+  }
+  return shor_van_wyk(polygon, &turns, nullptr, allowed).triangles;
 }
 
 }  // namespace lipmap::detail

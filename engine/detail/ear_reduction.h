@@ -1,6 +1,7 @@
 // Ear clipping before the Shor–van Wyk table (paper App. C). Internal to the classify stage.
 #pragma once
 
+#include <functional>
 #include <vector>
 
 #include "engine/cancel.h"
@@ -20,6 +21,8 @@ struct EarReduction {
 // it at their shared vertex, from outside). Such a triangle lifts into every triangulated immersed disk
 // bounded by P, so P meets the prescribed angles iff the clipped polygon meets the updated ones.
 // `turns[k]` is the full-turn count of the prescribed angle at k (see shor_van_wyk). Stops at 3 vertices.
-EarReduction clip_ears(const std::vector<Pt>& polygon, std::vector<int> turns, const CancelToken* cancel);
+// `allowed` (indices into `polygon`), when given, can forbid ears besides the unsafe ones.
+EarReduction clip_ears(const std::vector<Pt>& polygon, std::vector<int> turns, const CancelToken* cancel,
+                       const std::function<bool(int, int, int)>* allowed = nullptr);
 
 }  // namespace lipmap::detail

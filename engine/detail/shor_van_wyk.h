@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstddef>
+#include <functional>
 #include <optional>
 #include <vector>
 
@@ -23,7 +24,17 @@ struct ShorVanWykResult {
 // sub-polygon, the set of feasible full-turn pairs at its two ends (DESIGN.md section 3), so no solution is
 // missed when turns > 0. Requires 0 <= turns[k] <= 7. Without `turns`, any triangulation with positive
 // triangles is accepted (the weakly self-overlapping test of section 3.1).
+// `allowed`, when given, can forbid triangles (i, k, j) besides the non-positive ones (the refinement uses
+// it to forbid triangles whose corners all lie on one original edge).
+using AllowedTriangle = std::function<bool(int i, int k, int j)>;
+
 ShorVanWykResult shor_van_wyk(const std::vector<Pt>& polygon, const std::vector<int>* turns,
-                              const CancelToken* cancel);
+                              const CancelToken* cancel, const AllowedTriangle* allowed = nullptr);
+
+// A triangulation of a small polygon in which every angle is the polygon's own interior angle (all R_i = 0:
+// the polygon is self-overlapping, section 3.1), or none. No ear reduction: meant for the refined triangles'
+// image polygons, a handful of vertices each.
+std::optional<std::vector<Triangle>> triangulate_self_overlapping(const std::vector<Pt>& polygon,
+                                                                  const AllowedTriangle* allowed = nullptr);
 
 }  // namespace lipmap::detail

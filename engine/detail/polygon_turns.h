@@ -1,0 +1,42 @@
+// Turning number and spike vertices of a closed polygon, exactly (App. B). Internal: includes CGAL.
+#pragma once
+
+#include <vector>
+
+#include "engine/detail/plane_angles.h"
+
+namespace lipmap::detail {
+
+// Which half-plane of directions an edge a -> b points into: upper is [0, pi), lower is [pi, 2 pi).
+inline bool points_up(const Pt& a, const Pt& b) {
+  const int dy = compare_coord(b.y(), a.y());
+  return dy > 0 || (dy == 0 && b.x() > a.x());
+}
+
+// Number of full counterclockwise turns of the edge direction around P, counted exactly: each turn at a
+// vertex is in [-pi, pi) (a spike, where the polygon doubles back, is the clockwise half turn because its
+// interior angle is 2 pi), and the direction crosses angle 0 upwards on left turns from the lower to the
+// upper half-plane and downwards on right turns from the upper to the lower one.
+inline int turning_number(const std::vector<Pt>& p) {
+  const int n = static_cast<int>(p.size());
+  int turns = 0;
+  for (int i = 0; i < n; ++i) {
+    const Pt &a = p[(i + n - 1) % n], &b = p[i], &c = p[(i + 1) % n];
+    const bool up_in = points_up(a, b), up_out = points_up(b, c);
+    const int o = orient(a, b, c);
+    if (o > 0 && !up_in && up_out) ++turns;
+    if (o < 0 && up_in && !up_out) --turns;
+    if (o == 0 && same_ray(b, a, c) && up_in) --turns;  // spike: v_{i+1} back towards v_{i-1}
+  }
+  return turns;
+}
+
+// A spike vertex (v_{i+1} on the ray towards v_{i-1}) has interior angle 2 pi: zero sweep plus one turn.
+inline std::vector<int> spike_turns(const std::vector<Pt>& p) {
+  const int n = static_cast<int>(p.size());
+  std::vector<int> spikes(n);
+  for (int i = 0; i < n; ++i) spikes[i] = sector(p[i], p[(i + 1) % n], p[(i + n - 1) % n]) == 0;
+  return spikes;
+}
+
+}  // namespace lipmap::detail
