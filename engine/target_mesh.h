@@ -1,0 +1,65 @@
+// Stage "target mesh" (paper 4, "Meshing the target domain", Fig. 7): from the boundary polygon P and its
+// coarse triangulation (classify: n - 2 positive triangles, no interior vertices) build the finer target
+// mesh M_t whose boundary is exactly P.
+//
+//  1. Partition: merge coarse triangles across interior edges while the union stays a simple polygon
+//     (exact CGAL::is_simple_2); badly shaped diagonals (long against their triangles) are removed first.
+//     A simple P is one piece. Sheets that overlap in the plane always end up in different pieces.
+//  2. Split every interior edge of the partition into k = max(1, round(length / h)) equal segments; the
+//     split points belong to the edge (identified by edge and k, never by position), so both sides use the
+//     same vertices.
+//  3. Mesh each piece with CGAL's constrained Delaunay mesher that never splits constrained edges: P's edges
+//     are never split and the split interior edges are not split further.
+//  4. Glue: polygon vertex k keeps id k; split points follow, then the pieces' Steiner points.
+// The result is verified before it is returned (strictly positive faces by the exact predicate, a disk
+// whose single boundary loop is 0, 1, ..., n-1 with the interior on the left, interior angle sums 2 pi,
+// angle at every polygon vertex equal to the coarse triangulation's, total area equal to the coarse area);
+// any failure throws InternalError with the reason.
+#pragma once
+
+#include <vector>
+
+#include "engine/boundary_polygon.h"
+#include "engine/cancel.h"
+#include "engine/geometry.h"
+
+namespace lipmap {
+
+struct TargetMeshOptions {
+  // Target triangle count ~ density * source_triangles (paper: same density as the source, density 1).
+  double density = 1.0;
+  // Triangles of the source mesh; 0: use 2 * n (n = polygon vertices).
+  int source_triangles = 0;
+  // Smallest angle the mesher aims for away from P's boundary (CGAL's bound; at most 30 degrees).
+  double min_angle_deg = 20;
+};
+
+struct TargetMesh {
+  std::vector<Point2> vertices;  // vertices[k] == P.vertices[k] bit for bit for k < n
+  std::vector<Triangle> faces;   // all strictly positive (counterclockwise)
+  int pieces = 0;                // simple sub-polygons of the partition
+  int interior_edge_splits = 0;  // points inserted on the partition's interior edges
+  int steiner_points = 0;        // points the mesher inserted inside the pieces
+  int target_triangles = 0;      // the triangle count aimed at
+  int remesh_rounds = 1;         // meshing passes (a second one when the first missed the count badly)
+  double size = 0;               // target edge length h used for the splits and the mesher's size bound
+  double min_angle_deg = 0;      // smallest triangle angle in the result
+  bool hit_point_cap = false;    // some piece stopped refining at the Steiner point cap
+  double partition_ms = 0, mesh_ms = 0, verify_ms = 0;
+  double ms = 0;                 // whole stage
+};
+
+// Throws InputError for bad options (code target_density_invalid, source_triangles_invalid,
+// min_angle_invalid) or a polygon with fewer than 3 vertices / non-finite coordinates; InternalError when
+// the coarse triangulation is not a positive triangulation of P without interior vertices or when the
+// result fails verification; Cancelled when the token fires.
+TargetMesh build_target_mesh(const BoundaryPolygon& polygon, const std::vector<Triangle>& coarse,
+                             const TargetMeshOptions& options = {}, const CancelToken* cancel = nullptr);
+
+// The verification build_target_mesh runs on its result, exposed for tests and for the pipeline's own
+// verify stage: throws InternalError with the reason when `mesh` is not a valid target mesh for P and the
+// coarse triangulation.
+void verify_target_mesh(const BoundaryPolygon& polygon, const std::vector<Triangle>& coarse,
+                        const TargetMesh& mesh);
+
+}  // namespace lipmap
