@@ -16,6 +16,9 @@
 
 #include <algorithm>
 #include <cctype>
+#include <charconv>
+#include <cmath>
+#include <ostream>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
@@ -217,6 +220,84 @@ RawMesh read_mesh_file(const std::string& path) {
                    " vertices but only " + std::to_string(mesh.vertices.size()) + " could be read");
   if (ext == "obj") check_obj_complete(path, mesh);
   return mesh;
+}
+
+// ---- Writing ------------------------------------------------------------------------------------------
+
+std::string shortest_double(double value) {
+  if (std::isnan(value)) return "nan";
+  if (std::isinf(value)) return value > 0 ? "inf" : "-inf";
+  char buf[64];
+  const auto result = std::to_chars(buf, buf + sizeof buf, value);  // shortest round-trip form
+  return std::string(buf, result.ptr);
+}
+
+void write_obj(std::ostream& out, const std::vector<Point3>& vertices, const std::vector<Triangle>& faces,
+               const std::vector<Point2>* uv) {
+  if (uv && uv->size() != vertices.size())
+    throw InternalError("write_obj: " + std::to_string(uv->size()) + " uv positions for " +
+                        std::to_string(vertices.size()) + " vertices");
+  const long long n = static_cast<long long>(vertices.size());
+  for (std::size_t f = 0; f < faces.size(); ++f)
+    for (int c : faces[f])
+      if (c < 0 || c >= n)
+        throw InternalError("write_obj: face " + std::to_string(f) + " has corner index " + std::to_string(c) +
+                            " out of range");
+  std::string line;
+  char buf[64];
+  auto number = [&](double v) {
+    line += ' ';
+    if (std::isfinite(v)) {
+      const auto r = std::to_chars(buf, buf + sizeof buf, v);
+      line.append(buf, r.ptr);
+    } else {
+      line += shortest_double(v);
+    }
+  };
+  auto index = [&](long long i) {
+    const auto r = std::to_chars(buf, buf + sizeof buf, i);
+    line.append(buf, r.ptr);
+  };
+  out << "# lipmap: " << vertices.size() << " vertices, " << faces.size() << " faces"
+      << (uv ? ", one texture coordinate (vt) per vertex" : "") << "\n";
+  for (const Point3& p : vertices) {
+    line = "v";
+    number(p.x);
+    number(p.y);
+    number(p.z);
+    line += '\n';
+    out << line;
+  }
+  if (uv)
+    for (const Point2& p : *uv) {
+      line = "vt";
+      number(p.x);
+      number(p.y);
+      line += '\n';
+      out << line;
+    }
+  for (const Triangle& t : faces) {
+    line = "f";
+    for (int c : t) {
+      line += ' ';
+      index(static_cast<long long>(c) + 1);
+      if (uv) {
+        line += '/';
+        index(static_cast<long long>(c) + 1);
+      }
+    }
+    line += '\n';
+    out << line;
+  }
+}
+
+void write_obj(const std::string& path, const std::vector<Point3>& vertices, const std::vector<Triangle>& faces,
+               const std::vector<Point2>* uv) {
+  std::ofstream file(path, std::ios::binary | std::ios::trunc);
+  if (!file) throw InputError("output_file_unwritable", "cannot create '" + path + "'");
+  write_obj(file, vertices, faces, uv);
+  file.flush();
+  if (!file) throw InputError("output_file_unwritable", "cannot write '" + path + "'");
 }
 
 }  // namespace lipmap

@@ -10,11 +10,35 @@
 #include <sstream>
 #include <string>
 
+#include <algorithm>
+#include <cctype>
+#include <chrono>
+#include <cstdio>
+#include <mutex>
+
 #include <CLI/CLI.hpp>
+
+// `lipmap map` needs the whole engine (engine/pipeline.cpp). The server's CMakeLists says whether it is
+// there (LIPMAP_HAVE_PIPELINE); without that, the source tree decides.
+#if defined(LIPMAP_HAVE_PIPELINE)
+#define LIPMAP_CLI_HAVE_PIPELINE LIPMAP_HAVE_PIPELINE
+#elif defined(__has_include)
+#if __has_include("engine/pipeline.cpp")
+#define LIPMAP_CLI_HAVE_PIPELINE 1
+#else
+#define LIPMAP_CLI_HAVE_PIPELINE 0
+#endif
+#else
+#define LIPMAP_CLI_HAVE_PIPELINE 0
+#endif
+
+#include "engine/pipeline.h"
 
 #include "engine/classify.h"
 #include "engine/error.h"
+#include "engine/mesh_io.h"
 #include "server/json_codec.h"
+#include "server/svg_preview.h"
 #include "server/serve_command.h"
 
 namespace lipmap::cli {
@@ -58,7 +82,7 @@ std::string where(const std::optional<std::string>& pointer) {
   return *pointer + ": ";
 }
 
-int not_implemented(const std::string& what, const std::string& coming_with, std::ostream& err) {
+[[maybe_unused]] int not_implemented(const std::string& what, const std::string& coming_with, std::ostream& err) {
   error_line(err, "not_implemented", "'lipmap " + what + "' is not implemented yet (it comes with " + coming_with + ")");
   return kExitUsageError;
 }
@@ -102,6 +126,222 @@ int classify_command(const std::string& file, bool pretty, std::istream& in, std
   }
 }
 
+// ---- lipmap map -------------------------------------------------------------------------------------
+
+namespace {
+
+std::string lower_extension(const std::string& path) {
+  const std::string ext = std::filesystem::path(path).extension().string();
+  std::string out;
+  for (char c : ext) out += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return out.empty() ? out : out.substr(1);
+}
+
+[[maybe_unused]] const char* stage_name(Stage stage) {
+  switch (stage) {
+    case Stage::validate: return "validate";
+    case Stage::classify: return "classify";
+    case Stage::target_mesh: return "target_mesh";
+    case Stage::intermediate_maps: return "intermediate_maps";
+    case Stage::compose: return "compose";
+    case Stage::refine: return "refine";
+    case Stage::verify: return "verify";
+    case Stage::quality: return "quality";
+  }
+  return "stage";
+}
+
+// An InputError about the boundary, when the boundary came from its own file: "/boundary/positions/3" ->
+// "/positions/3" in that file.
+[[maybe_unused]] std::string map_error_location(const InputError& e, bool boundary_from_file, const std::string& boundary_file,
+                               bool mesh_from_json, const std::string& mesh_file) {
+  const std::optional<std::string> pointer = codec::parametrize_error_pointer(e);
+  if (!pointer || pointer->empty()) return {};
+  const std::string prefix = "/boundary";
+  if (boundary_from_file && pointer->compare(0, prefix.size(), prefix) == 0)
+    return boundary_file + ": " + pointer->substr(prefix.size()) + ": ";
+  if (mesh_from_json) return mesh_file + ": " + *pointer + ": ";
+  return {};  // a mesh file: the engine's message names the vertex, face or edge
+}
+
+class MapFailure : public std::runtime_error {  // an error line already decided: code, message, exit code
+public:
+  MapFailure(std::string code, const std::string& message, int exit_code)
+      : std::runtime_error(message), code_(std::move(code)), exit_code_(exit_code) {}
+  const std::string& code() const { return code_; }
+  int exit_code() const { return exit_code_; }
+
+private:
+  std::string code_;
+  int exit_code_;
+};
+
+[[maybe_unused]] void write_text_file(const std::string& path, const std::string& text) {
+  std::ofstream file(path, std::ios::binary | std::ios::trunc);
+  if (!file) throw MapFailure("output_file_unwritable", "cannot create '" + path + "': " + std::strerror(errno), kExitInputError);
+  file << text;
+  file.flush();
+  if (!file) throw MapFailure("output_file_unwritable", "cannot write '" + path + "'", kExitInputError);
+}
+
+[[maybe_unused]] std::string fmt_ms(double ms) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f ms", ms);
+  return buf;
+}
+
+}  // namespace
+
+int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
+  (void)out;
+  const std::string mesh_ext = lower_extension(args.mesh_file);
+  const bool mesh_from_json = mesh_ext == "json";
+  const bool boundary_from_file = !args.boundary_file.empty();
+  // Usage problems first, before any work.
+  const std::string out_ext = lower_extension(args.output_file);
+  if (out_ext != "obj" && out_ext != "json") {
+    error_line(err, "usage", "-o must name a .obj or .json file, got '" + args.output_file + "' (run 'lipmap map --help')");
+    return kExitUsageError;
+  }
+  if (!mesh_from_json && !boundary_from_file) {
+    error_line(err, "usage", "--boundary BOUNDARY.json is required unless MESH is a .json parametrize request "
+                             "(run 'lipmap map --help')");
+    return kExitUsageError;
+  }
+  try {
+    // ---- inputs ----
+    RawMesh mesh;
+    RawBoundary boundary;
+    ParametrizeOptions options;  // engine defaults (method harmonic)
+    if (mesh_from_json) {
+      try {
+        const nlohmann::json body = codec::parse_json(read_all(args.mesh_file, std::cin));
+        // The body's boundary is required by the request's shape; with --boundary it is still parsed
+        // (a body must be a valid request), then replaced.
+        codec::ParametrizeRequest request = codec::parametrize_request_from_json(body);
+        mesh = std::move(request.mesh);
+        boundary = std::move(request.boundary);
+        options = codec::engine_options(request.options);
+        // The codec fills an absent "method" with its own default; the engine's default applies instead.
+        const auto o = body.find("options");
+        if (o == body.end() || !o->is_object() || !o->contains("method")) options.method = MapMethod::harmonic;
+      } catch (const codec::JsonError& e) {
+        throw MapFailure(e.code(), args.mesh_file + ": " + (e.pointer().empty() ? "" : e.pointer() + ": ") + e.what(),
+                         kExitInputError);
+      }
+    } else {
+      mesh = read_mesh_file(args.mesh_file);
+    }
+    if (boundary_from_file) {
+      try {
+        boundary = codec::boundary_from_json(codec::parse_json(read_all(args.boundary_file, std::cin)));
+      } catch (const codec::JsonError& e) {
+        throw MapFailure(e.code(),
+                         args.boundary_file + ": " + (e.pointer().empty() ? "" : e.pointer() + ": ") + e.what(),
+                         kExitInputError);
+      }
+    }
+    if (args.method == "tutte") options.method = MapMethod::tutte;
+    else if (args.method == "harmonic") options.method = MapMethod::harmonic;
+    if (args.no_refine) options.refine = false;
+    if (args.target_density > 0) options.target_density = args.target_density;
+
+#if LIPMAP_CLI_HAVE_PIPELINE
+    // ---- the pipeline ----
+    std::mutex progress_mutex;
+    std::chrono::steady_clock::time_point stage_start = std::chrono::steady_clock::now();
+    int last_percent = -1;
+    ProgressFn progress;
+    if (args.progress)
+      progress = [&](Stage stage, double fraction) {
+        std::lock_guard<std::mutex> lock(progress_mutex);
+        const auto now = std::chrono::steady_clock::now();
+        if (fraction <= 0) {
+          stage_start = now;
+          last_percent = 0;
+          err << "lipmap: progress: " << stage_name(stage) << " ...\n";
+        } else if (fraction >= 1) {
+          err << "lipmap: progress: " << stage_name(stage) << " done in "
+              << fmt_ms(std::chrono::duration<double, std::milli>(now - stage_start).count()) << "\n";
+        } else {
+          const int percent = static_cast<int>(fraction * 100);
+          if (percent < last_percent + 10) return;
+          last_percent = percent;
+          err << "lipmap: progress: " << stage_name(stage) << " " << percent << "%\n";
+        }
+        err.flush();
+      };
+    ParametrizeResult result;
+    try {
+      result = parametrize(mesh, boundary, options, nullptr, progress);
+    } catch (const NotSelfOverlapping& e) {
+      const Classification& c = e.classification();
+      throw MapFailure(e.code(),
+                       std::string(e.what()) + " (verdict: " + codec::verdict_name(c.verdict) + ", turning number " +
+                           std::to_string(c.turning_number) + ")",
+                       kExitInputError);
+    } catch (const codec::JsonError&) {
+      throw;
+    } catch (const InputError& e) {
+      throw MapFailure(e.code(),
+                       map_error_location(e, boundary_from_file, args.boundary_file, mesh_from_json, args.mesh_file) +
+                           e.what(),
+                       kExitInputError);
+    }
+
+    // ---- outputs ----
+    if (out_ext == "obj") {
+      std::ostringstream text;
+      write_obj(text, result.map.vertices, result.map.faces, &result.map.uv);
+      write_text_file(args.output_file, text.str());
+    } else {
+      write_text_file(args.output_file, codec::dump(codec::parametrize_result_to_json(result), args.pretty) + "\n");
+    }
+    if (!args.preview_file.empty())
+      write_text_file(args.preview_file, preview::render_svg(preview::picture_of(result, "lipmap map " + args.mesh_file)));
+    if (args.progress) {
+      char buf[512];
+      std::snprintf(buf, sizeof buf,
+                    "lipmap: done: verdict %s, %zu vertices (%zu inserted), %zu triangles, %d flipped before "
+                    "refinement, %d flipped, distortion max %.4g mean %.4g, total %.1f ms\n",
+                    codec::verdict_name(result.classification.verdict), result.map.vertices.size(),
+                    result.map.inserted.size(), result.map.faces.size(), result.map.flipped_before_refinement,
+                    result.flipped, result.distortion.max, result.distortion.mean, result.timings.total);
+      err << buf;
+      err.flush();
+    }
+    return kExitOk;
+#else
+    (void)options;
+    return not_implemented("map", "the remapping engine, engine/pipeline.cpp", err);
+#endif
+  } catch (const MapFailure& e) {
+    error_line(err, e.code(), e.what());
+    return e.exit_code();
+  } catch (const ReadError& e) {
+    error_line(err, "file_unreadable", e.what());
+    return kExitInputError;
+  } catch (const InputError& e) {  // read_mesh_file, write_obj
+    error_line(err, e.code(), e.what());
+    return kExitInputError;
+  } catch (const InternalError& e) {
+    error_line(err, "internal_error", e.what());
+    return kExitInternalError;
+  } catch (const Cancelled& e) {
+    error_line(err, "cancelled", e.what());
+    return kExitInternalError;
+  } catch (const std::bad_alloc&) {
+    error_line(err, "out_of_memory", "not enough memory to map this mesh");
+    return kExitInternalError;
+  } catch (const std::exception& e) {
+    error_line(err, "internal_error", e.what());
+    return kExitInternalError;
+  } catch (...) {
+    error_line(err, "internal_error", "unexpected exception");
+    return kExitInternalError;
+  }
+}
+
 int run(int argc, const char* const* argv, std::istream& in, std::ostream& out, std::ostream& err) {
   try {
     CLI::App app{"lipmap: locally injective parametrization of disk meshes onto self-overlapping boundaries",
@@ -120,8 +360,31 @@ int run(int argc, const char* const* argv, std::istream& in, std::ostream& out, 
         ->required();
     classify_cmd->add_flag("--pretty", pretty, "Indent the JSON answer");
 
-    CLI::App* map_cmd = app.add_subcommand("map", "Map a mesh onto a boundary polygon (not implemented yet)");
-    map_cmd->allow_extras();
+    MapArgs map_args;
+    CLI::App* map_cmd = app.add_subcommand(
+        "map", "Map a disk mesh onto a boundary polygon with a locally injective map (refining the mesh where "
+               "needed) and write the refined mesh with its uv");
+    map_cmd
+        ->add_option("MESH", map_args.mesh_file,
+                     "The mesh (.obj, .off, .ply, .stl), or a .json POST /v1/parametrize body {mesh, boundary, options}")
+        ->required();
+    map_cmd->add_option("--boundary,-b", map_args.boundary_file,
+                        "JSON {\"vertices\": [i...]?, \"positions\": [[u, v]...], \"rotation_indices\": [r...]?}: "
+                        "the image of the boundary loop (required unless MESH is .json; replaces the body's)");
+    map_cmd->add_option("--output,-o", map_args.output_file,
+                        "OUT.obj (v, vt, f v/vt lines) or OUT.json (the HTTP answer of POST /v1/parametrize)")
+        ->required();
+    map_cmd->add_option("--method", map_args.method, "Intermediate maps: harmonic (default) or tutte")
+        ->check(CLI::IsMember({"tutte", "harmonic"}));
+    map_cmd->add_flag("--no-refine", map_args.no_refine,
+                      "Only the vertex-wise map: no refinement, so the result may have flipped triangles");
+    map_cmd->add_option("--target-density", map_args.target_density,
+                        "Target-mesh triangles relative to the source's (default 1)")
+        ->check(CLI::PositiveNumber);
+    map_cmd->add_option("--preview", map_args.preview_file,
+                        "Also write an SVG picture of the uv map (distortion colours, flips in red, target outline)");
+    map_cmd->add_flag("--progress", map_args.progress, "Print each stage and a summary on standard error");
+    map_cmd->add_flag("--pretty", map_args.pretty, "Indent the JSON output");
     ServeOptions serve_options;
     CLI::App* serve_cmd = add_serve_subcommand(app, serve_options);
 
@@ -143,7 +406,7 @@ int run(int argc, const char* const* argv, std::istream& in, std::ostream& out, 
     }
 
     if (classify_cmd->parsed()) return classify_command(classify_file, pretty, in, out, err);
-    if (map_cmd->parsed()) return not_implemented("map", "the remapping engine", err);
+    if (map_cmd->parsed()) return map_command(map_args, out, err);
     if (serve_cmd->parsed()) return serve_command(serve_options, out, err);
     error_line(err, "usage", "no subcommand given (run 'lipmap --help')");
     return kExitUsageError;

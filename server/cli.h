@@ -1,4 +1,4 @@
-// The lipmap command line: `lipmap classify FILE`, and the places of `map` and `serve` to come.
+// The lipmap command line: `lipmap classify FILE`, `lipmap map MESH ...`, and `lipmap serve`.
 // Everything JSON goes through json_codec; everything else is the engine's.
 #pragma once
 
@@ -21,5 +21,27 @@ int run(int argc, const char* const* argv, std::istream& in, std::ostream& out, 
 
 // `lipmap classify FILE [--pretty]`: FILE holds a /v1/polygons/classify body; "-" reads it from `in`.
 int classify_command(const std::string& file, bool pretty, std::istream& in, std::ostream& out, std::ostream& err);
+
+// `lipmap map MESH --boundary BOUNDARY.json -o OUT [--method tutte|harmonic] [--no-refine]
+//  [--target-density D] [--preview OUT.svg] [--progress] [--pretty]`.
+// MESH is .obj/.off/.ply/.stl (read_mesh_file), or .json holding a whole POST /v1/parametrize body (mesh,
+// boundary, options); then --boundary is optional and, when given, replaces the body's boundary, and the
+// command-line options override the body's. BOUNDARY.json is the body's "boundary" object. OUT is .obj
+// (v, vt and f v/vt lines) or .json (the HTTP answer, proto/parametrize-answer.schema.json). Method: the
+// body's, else --method, else harmonic (the engine's default). Exit codes: 0 written; 1 input error
+// (including not_self_overlapping, whose message names the verdict) and unwritable output; 2 usage; 3
+// internal error. With --progress, one line per stage start/end and a summary go to `err`.
+struct MapArgs {
+  std::string mesh_file;
+  std::string boundary_file;   // empty: none
+  std::string output_file;
+  std::string method;          // empty: not given; else "tutte" or "harmonic"
+  bool no_refine = false;
+  double target_density = 0;   // <= 0: not given
+  std::string preview_file;    // empty: none
+  bool progress = false;
+  bool pretty = false;
+};
+int map_command(const MapArgs& args, std::ostream& out, std::ostream& err);
 
 }  // namespace lipmap::cli

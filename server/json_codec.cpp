@@ -7,6 +7,8 @@
 #include <utility>
 #include <vector>
 
+#include "engine/pipeline.h"
+
 namespace lipmap::codec {
 
 using nlohmann::json;
@@ -364,6 +366,18 @@ const char* to_string(MapMethod method) {
   return "tutte";
 }
 
+namespace {
+RawBoundary read_boundary(const json& value, const Path& boundary_at) {
+  const json& boundary = object(value, boundary_at, {"vertices", "positions", "rotation_indices"});
+  RawBoundary out;
+  if (const json* v = optional_member(boundary, "vertices")) out.vertices = longs(*v, boundary_at / "vertices");
+  out.positions = points2(required_member(boundary, "positions", boundary_at), boundary_at / "positions");
+  if (const json* r = optional_member(boundary, "rotation_indices"))
+    out.rotation_indices = longs(*r, boundary_at / "rotation_indices");
+  return out;
+}
+}  // namespace
+
 ParametrizeRequest parametrize_request_from_json(const json& body) {
   const Path root;
   object(body, root, {"mesh", "boundary", "options"});
@@ -392,12 +406,7 @@ ParametrizeRequest parametrize_request_from_json(const json& body) {
   }
 
   const Path boundary_at = root / "boundary";
-  const json& boundary =
-      object(required_member(body, "boundary", root), boundary_at, {"vertices", "positions", "rotation_indices"});
-  if (const json* v = optional_member(boundary, "vertices")) request.boundary.vertices = longs(*v, boundary_at / "vertices");
-  request.boundary.positions = points2(required_member(boundary, "positions", boundary_at), boundary_at / "positions");
-  if (const json* r = optional_member(boundary, "rotation_indices"))
-    request.boundary.rotation_indices = longs(*r, boundary_at / "rotation_indices");
+  request.boundary = read_boundary(required_member(body, "boundary", root), boundary_at);
 
   if (const json* o = optional_member(body, "options")) {
     const Path at = root / "options";
@@ -602,6 +611,100 @@ ordered_json problem_json(int status, const std::string& title, const std::strin
   if (pointer) out["pointer"] = *pointer;
   if (!element.empty()) out["element"] = element;
   if (index) out["index"] = *index;
+  return out;
+}
+
+// ---- boundary document, engine options, parametrize answer -----------------------------------------
+
+RawBoundary boundary_from_json(const json& boundary) { return read_boundary(boundary, Path{}); }
+
+ordered_json boundary_to_json(const RawBoundary& boundary) {
+  ordered_json out;
+  if (boundary.vertices) out["vertices"] = *boundary.vertices;
+  out["positions"] = ordered_json::array();
+  for (const Point2& p : boundary.positions) out["positions"].push_back({p.x, p.y});
+  if (boundary.rotation_indices) out["rotation_indices"] = *boundary.rotation_indices;
+  return out;
+}
+
+lipmap::ParametrizeOptions engine_options(const ParametrizeOptions& options) {
+  lipmap::ParametrizeOptions out;
+  out.method = options.method == MapMethod::tutte ? lipmap::MapMethod::tutte : lipmap::MapMethod::harmonic;
+  out.refine = options.refine;
+  out.target_density = options.target_density;
+  return out;
+}
+
+namespace {
+// A finite number, or null for +-inf / NaN (JSON has no infinity).
+ordered_json finite_or_null(double v) { return std::isfinite(v) ? ordered_json(v) : ordered_json(nullptr); }
+
+const char* solution_name(DiskMapSolution s) {
+  switch (s) {
+    case DiskMapSolution::primary: return "primary";
+    case DiskMapSolution::mean_value: return "mean_value";
+    case DiskMapSolution::tutte: return "tutte";
+  }
+  return "primary";
+}
+}  // namespace
+
+ordered_json parametrize_result_to_json(const lipmap::ParametrizeResult& r) {
+  ordered_json out;
+  const Classification& c = r.classification;
+  out["verdict"] = verdict_name(c.verdict);
+  out["turning_number"] = c.turning_number;
+  ordered_json singular = ordered_json::array();
+  for (int k : c.singular_vertices)
+    singular.push_back(k >= 0 && static_cast<std::size_t>(k) < r.boundary_loop.size() ? r.boundary_loop[k] : k);
+  out["singular_vertices"] = std::move(singular);
+  out["rotation_indices"] = c.rotation_indices;
+  out["boundary_loop"] = r.boundary_loop;
+
+  const RefinedMap& m = r.map;
+  ordered_json vertices = ordered_json::array();
+  vertices.get_ref<ordered_json::array_t&>().reserve(m.vertices.size());
+  for (const Point3& p : m.vertices) vertices.push_back({p.x, p.y, p.z});
+  out["mesh"] = {{"vertices", std::move(vertices)}, {"faces", triangles_json(m.faces)}};
+  ordered_json uv = ordered_json::array();
+  uv.get_ref<ordered_json::array_t&>().reserve(m.uv.size());
+  for (const Point2& p : m.uv) uv.push_back({p.x, p.y});
+  out["uv"] = std::move(uv);
+  ordered_json inserted = ordered_json::array();
+  for (const InsertedVertex& v : m.inserted) {
+    ordered_json e;
+    e["edge"] = {v.a, v.b};
+    e["t"] = v.t;
+    inserted.push_back(std::move(e));
+  }
+  out["inserted"] = std::move(inserted);
+
+  ordered_json d;
+  d["inserted_vertices"] = m.inserted.size();
+  d["flipped_before_refinement"] = m.flipped_before_refinement;
+  d["flipped"] = r.flipped;
+  d["target_mesh"] = {{"vertices", r.target_mesh.vertices},
+                      {"faces", r.target_mesh.faces},
+                      {"pieces", r.target_mesh.pieces},
+                      {"min_angle_deg", r.target_mesh.min_angle_deg}};
+  d["intermediate_maps"] = {{"source", solution_name(r.source_map_solution)},
+                            {"target", solution_name(r.target_map_solution)}};
+  d["refinement"] = {{"refined_faces", m.refined_faces},
+                     {"points_before_simplification", m.points_before_simplification},
+                     {"simplification_rounds", m.simplification_rounds}};
+  ordered_json edges = ordered_json::array();
+  // The lower edge of every bin (the last bin is open above, its upper edge +inf is not written).
+  for (std::size_t i = 0; i < r.distortion.counts.size() && i < r.distortion.bin_edges.size(); ++i)
+    edges.push_back(finite_or_null(r.distortion.bin_edges[i]));
+  d["distortion"] = {{"max", finite_or_null(r.distortion.max)},
+                     {"mean", finite_or_null(r.distortion.mean)},
+                     {"histogram", {{"edges", std::move(edges)}, {"counts", r.distortion.counts}}}};
+  const StageTimings& t = r.timings;
+  d["timings_ms"] = {{"validate", t.validate},     {"classify", t.classify}, {"target_mesh", t.target_mesh},
+                     {"intermediate_maps", t.intermediate_maps}, {"compose", t.compose},
+                     {"refine", t.refine},         {"verify", t.verify},     {"quality", t.quality},
+                     {"total", t.total}};
+  out["diagnostics"] = std::move(d);
   return out;
 }
 

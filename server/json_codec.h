@@ -16,6 +16,11 @@
 #include "engine/disk_mesh.h"
 #include "engine/error.h"
 
+namespace lipmap {
+struct ParametrizeOptions;  // engine/pipeline.h (kept out of this header: it pulls in Eigen)
+struct ParametrizeResult;
+}  // namespace lipmap
+
 namespace lipmap::codec {
 
 // Requests are read from nlohmann::json; everything the codec writes is an ordered_json, so that members
@@ -88,6 +93,35 @@ struct ParametrizeRequest {
 
 ParametrizeRequest parametrize_request_from_json(const nlohmann::json& body);
 nlohmann::ordered_json parametrize_request_to_json(const ParametrizeRequest& request);
+
+// The "boundary" member alone, as a document of its own (`lipmap map --boundary FILE`):
+// {"vertices": [i...]?, "positions": [[u,v]...], "rotation_indices": [r...]?}. Same rules as inside a
+// parametrize request; JSON pointers are relative to this document (e.g. /positions/3/0).
+RawBoundary boundary_from_json(const nlohmann::json& boundary);
+nlohmann::ordered_json boundary_to_json(const RawBoundary& boundary);
+
+// The engine's options for a parsed request (the codec's own enum maps one to one onto the engine's).
+lipmap::ParametrizeOptions engine_options(const ParametrizeOptions& options);
+
+// ---- parametrize answer (200 of POST /v1/parametrize, GET /v1/jobs/{id}/result, `lipmap map -o X.json`) --
+// proto/parametrize-answer.schema.json:
+// {"verdict", "turning_number", "singular_vertices" (mesh vertex indices of boundary vertices with R > 0),
+//  "rotation_indices" (one per boundary position, in the order of "boundary_loop"), "boundary_loop" (mesh
+//  vertex pinned to each boundary position),
+//  "mesh": {"vertices": [[x,y,z]...], "faces": [[i,j,k]...]} (the refined mesh: original vertices first, same
+//  index and position, then the inserted ones), "uv": [[u,v]...] (one per vertex),
+//  "inserted": [{"edge": [a, b], "t": t}...] (inserted vertex i is vertex (original count + i), at
+//  a + t (b - a)),
+//  "diagnostics": {"inserted_vertices", "flipped_before_refinement", "flipped",
+//                  "target_mesh": {"vertices", "faces", "pieces", "min_angle_deg"},
+//                  "intermediate_maps": {"source", "target"} ("primary" | "mean_value" | "tutte"),
+//                  "refinement": {"refined_faces", "points_before_simplification", "simplification_rounds"},
+//                  "distortion": {"max", "mean", "histogram": {"edges": [1, 1.1, ..., 10], "counts": [...]}},
+//                  "timings_ms": {"validate", "classify", "target_mesh", "intermediate_maps", "compose",
+//                                 "refine", "verify", "quality", "total"}}}
+// Histogram: counts[i] faces with edges[i] <= K < edges[i + 1], the last bin open above. An infinite
+// distortion (a degenerate uv triangle, possible only with refine off) is written as null.
+nlohmann::ordered_json parametrize_result_to_json(const lipmap::ParametrizeResult& result);
 
 // ---- classify answer --------------------------------------------------------------------------------
 // {"verdict", "turning_number", "triangulation": [[i,j,k]...], "rotation_indices", "singular_vertices",

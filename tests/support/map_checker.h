@@ -1,0 +1,395 @@
+// Independent checker of a finished map against DESIGN.md section 2 (tests and benchmarks only).
+//
+// It shares no code with engine/verify.cpp (nor with any other engine source): the only engine header it
+// includes is engine/geometry.h for the plain value types Point2 / Point3 / Triangle. The orientation
+// predicate is CGAL's Exact_predicates_inexact_constructions_kernel::orientation_2 evaluated on the returned
+// doubles; everything else (edge maps, boundary walk, angle sums in long double, areas) is written here
+// from the definitions.
+//
+// Checks (each failure is one line "check: element: detail"; check names are stable):
+//   shape              sizes consistent, indices in range, coordinates finite
+//   original_vertex    vertex i < source count keeps its exact 3D position (bit for bit)
+//   inserted_count     result vertices = source vertices + inserted records
+//   inserted_edge      inserted vertex lies on an original edge (a, b), a < b, 0 < t < 1, at a + t (b - a)
+//                      within 1e-12 relative to the edge's coordinates
+//   inserted_boundary  the edge of an inserted vertex is not a boundary edge (no inserted vertex on the boundary)
+//   boundary_uv        uv of source loop vertex k == prescribed position k, bit for bit
+//   positive           every face strictly counterclockwise in uv (exact predicate)
+//   angle_sum          every interior vertex's uv angles sum to 2 pi within 1e-6 (one turn, not two)
+//   rotation_index     (only when rotation indices are given) boundary vertex k's uv angle sum equals the
+//                      polygon's interior angle + 2 pi R_k within 1e-6
+//   degenerate_3d      no face has all three corners on one original edge (or repeats a vertex)
+//   area               3D area of the result equals the source's within 1e-9 relative
+//   disk               manifold edges, consistent orientation, every vertex used, one fan per vertex,
+//                      V - E + F = 1, a single boundary loop equal (as a cycle, same direction) to the source's
+#pragma once
+
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <sstream>
+#include <string>
+#include <unordered_map>
+#include <utility>
+#include <vector>
+
+#include "engine/geometry.h"
+
+namespace lipmap::mapcheck {
+
+struct Inserted {
+  int a = 0, b = 0;
+  double t = 0;
+};
+
+struct SourceMesh {
+  std::vector<Point3> vertices;
+  std::vector<Triangle> faces;
+  std::vector<int> loop;  // boundary loop, interior on the left
+};
+
+struct Result {
+  std::vector<Point3> vertices;
+  std::vector<Triangle> faces;
+  std::vector<Point2> uv;
+  std::vector<Inserted> inserted;
+};
+
+struct Report {
+  std::vector<std::string> errors;
+  int interior_vertices_checked = 0;
+  int faces_checked = 0;
+  double area_relative_error = 0;
+  double max_angle_error = 0;  // |angle sum - 2 pi| over interior vertices
+
+  bool ok() const { return errors.empty(); }
+  bool has(const std::string& check) const {
+    for (const std::string& e : errors)
+      if (e.compare(0, check.size() + 1, check + ":") == 0) return true;
+    return false;
+  }
+  std::string str(std::size_t max_lines = 12) const {
+    std::ostringstream os;
+    for (std::size_t i = 0; i < errors.size() && i < max_lines; ++i) os << "  - " << errors[i] << "\n";
+    if (errors.size() > max_lines) os << "  ... and " << errors.size() - max_lines << " more\n";
+    return os.str();
+  }
+};
+
+namespace detail {
+
+using K = CGAL::Exact_predicates_inexact_constructions_kernel;
+constexpr long double kPi = 3.141592653589793238462643383279502884L;
+constexpr long double kTwoPi = 2 * kPi;
+
+inline int orient(const Point2& a, const Point2& b, const Point2& c) {
+  const CGAL::Orientation o = CGAL::orientation(K::Point_2(a.x, a.y), K::Point_2(b.x, b.y), K::Point_2(c.x, c.y));
+  return o == CGAL::LEFT_TURN ? 1 : (o == CGAL::RIGHT_TURN ? -1 : 0);
+}
+
+inline bool same_bits(double a, double b) { return a == b && std::signbit(a) == std::signbit(b); }
+
+inline std::uint64_t key(int a, int b) {
+  if (a > b) std::swap(a, b);
+  return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(a)) << 32) | static_cast<std::uint32_t>(b);
+}
+
+// Unsigned angle at a of triangle (a, b, c), long double.
+inline long double corner_angle(const Point2& a, const Point2& b, const Point2& c) {
+  const long double ux = (long double)b.x - a.x, uy = (long double)b.y - a.y;
+  const long double wx = (long double)c.x - a.x, wy = (long double)c.y - a.y;
+  return std::fabs(std::atan2(ux * wy - uy * wx, ux * wx + uy * wy));
+}
+
+// Interior angle of a polygon at v (prev, v, next), on the left, in (0, 2 pi].
+inline long double interior_angle(const Point2& prev, const Point2& v, const Point2& next) {
+  const long double ux = (long double)next.x - v.x, uy = (long double)next.y - v.y;
+  const long double wx = (long double)prev.x - v.x, wy = (long double)prev.y - v.y;
+  long double a = std::atan2(ux * wy - uy * wx, ux * wx + uy * wy);
+  if (a <= 0) a += kTwoPi;
+  return a;
+}
+
+inline long double area3(const Point3& a, const Point3& b, const Point3& c) {
+  const long double ux = (long double)b.x - a.x, uy = (long double)b.y - a.y, uz = (long double)b.z - a.z;
+  const long double wx = (long double)c.x - a.x, wy = (long double)c.y - a.y, wz = (long double)c.z - a.z;
+  const long double nx = uy * wz - uz * wy, ny = uz * wx - ux * wz, nz = ux * wy - uy * wx;
+  return 0.5L * std::sqrt(nx * nx + ny * ny + nz * nz);
+}
+
+inline std::string num(double v) {
+  std::ostringstream os;
+  os.precision(17);
+  os << v;
+  return os.str();
+}
+
+// Directed-edge structure of a face list: for each undirected edge the faces using it.
+struct EdgeUse {
+  int count = 0;      // faces using the undirected edge
+  int forward = 0;    // uses as (lo -> hi)
+  int backward = 0;   // uses as (hi -> lo)
+};
+
+inline std::unordered_map<std::uint64_t, EdgeUse> edge_uses(const std::vector<Triangle>& faces) {
+  std::unordered_map<std::uint64_t, EdgeUse> uses;
+  uses.reserve(faces.size() * 2);
+  for (const Triangle& t : faces)
+    for (int c = 0; c < 3; ++c) {
+      const int a = t[c], b = t[(c + 1) % 3];
+      EdgeUse& u = uses[key(a, b)];
+      ++u.count;
+      if (a < b) ++u.forward;
+      else ++u.backward;
+    }
+  return uses;
+}
+
+}  // namespace detail
+
+// rotation_indices: optional, one per loop position (the prescription the map must honour).
+inline Report check_map(const SourceMesh& src, const std::vector<Point2>& prescribed, const Result& res,
+                        const std::vector<int>* rotation_indices = nullptr, std::size_t max_errors = 64) {
+  using namespace detail;
+  Report rep;
+  auto add = [&](const std::string& check, const std::string& what) {
+    if (rep.errors.size() < max_errors) rep.errors.push_back(check + ": " + what);
+  };
+  const std::size_t n0 = src.vertices.size();
+  const std::size_t nv = res.vertices.size();
+
+  // ---- shape ----
+  if (res.uv.size() != nv) {
+    add("shape", std::to_string(res.uv.size()) + " uv positions for " + std::to_string(nv) + " vertices");
+    return rep;
+  }
+  if (prescribed.size() != src.loop.size()) {
+    add("shape", std::to_string(prescribed.size()) + " prescribed positions for a loop of " + std::to_string(src.loop.size()));
+    return rep;
+  }
+  for (std::size_t f = 0; f < res.faces.size(); ++f)
+    for (int c : res.faces[f])
+      if (c < 0 || static_cast<std::size_t>(c) >= nv) {
+        add("shape", "face " + std::to_string(f) + " has index " + std::to_string(c) + " out of range");
+        return rep;
+      }
+  for (std::size_t v = 0; v < nv; ++v)
+    if (!std::isfinite(res.uv[v].x) || !std::isfinite(res.uv[v].y) || !std::isfinite(res.vertices[v].x) ||
+        !std::isfinite(res.vertices[v].y) || !std::isfinite(res.vertices[v].z))
+      add("shape", "vertex " + std::to_string(v) + " has a non-finite coordinate");
+
+  // ---- 1. original vertices, inserted vertices ----
+  if (nv != n0 + res.inserted.size())
+    add("inserted_count", std::to_string(nv) + " vertices but " + std::to_string(n0) + " original + " +
+                              std::to_string(res.inserted.size()) + " inserted records");
+  for (std::size_t v = 0; v < std::min(n0, nv); ++v) {
+    const Point3 &p = res.vertices[v], &q = src.vertices[v];
+    if (!same_bits(p.x, q.x) || !same_bits(p.y, q.y) || !same_bits(p.z, q.z))
+      add("original_vertex", "vertex " + std::to_string(v) + " moved from (" + num(q.x) + ", " + num(q.y) + ", " +
+                                 num(q.z) + ") to (" + num(p.x) + ", " + num(p.y) + ", " + num(p.z) + ")");
+  }
+  const auto src_edges = edge_uses(src.faces);
+  // For the 3D degeneracy check: the original edge each vertex lies on (-1, -1 for original vertices).
+  std::vector<std::pair<int, int>> on_edge(nv, {-1, -1});
+  for (std::size_t i = 0; i < res.inserted.size(); ++i) {
+    const Inserted& ins = res.inserted[i];
+    const std::size_t v = n0 + i;
+    const std::string name = "inserted vertex " + std::to_string(v) + " (record " + std::to_string(i) + ", edge (" +
+                             std::to_string(ins.a) + ", " + std::to_string(ins.b) + "), t " + num(ins.t) + ")";
+    if (ins.a < 0 || ins.b < 0 || static_cast<std::size_t>(ins.a) >= n0 || static_cast<std::size_t>(ins.b) >= n0) {
+      add("inserted_edge", name + ": edge endpoints are not original vertices");
+      continue;
+    }
+    if (!(ins.a < ins.b)) add("inserted_edge", name + ": edge not reported as (a, b) with a < b");
+    auto it = src_edges.find(key(ins.a, ins.b));
+    if (it == src_edges.end()) {
+      add("inserted_edge", name + ": (a, b) is not an edge of the source mesh");
+      continue;
+    }
+    if (it->second.count < 2) add("inserted_boundary", name + ": (a, b) is a boundary edge");
+    if (!(ins.t > 0 && ins.t < 1)) add("inserted_edge", name + ": t not in (0, 1)");
+    if (v < nv) {
+      on_edge[v] = {std::min(ins.a, ins.b), std::max(ins.a, ins.b)};
+      const Point3 &a = src.vertices[ins.a], &b = src.vertices[ins.b], &p = res.vertices[v];
+      const long double t = ins.t;
+      const long double ex = a.x + t * ((long double)b.x - a.x), ey = a.y + t * ((long double)b.y - a.y),
+                        ez = a.z + t * ((long double)b.z - a.z);
+      const long double scale = std::max({std::fabs((long double)a.x), std::fabs((long double)a.y),
+                                          std::fabs((long double)a.z), std::fabs((long double)b.x),
+                                          std::fabs((long double)b.y), std::fabs((long double)b.z), 1e-300L});
+      const long double err = std::max({std::fabs(p.x - ex), std::fabs(p.y - ey), std::fabs(p.z - ez)});
+      if (err > 1e-12L * scale)
+        add("inserted_edge", name + ": position (" + num(p.x) + ", " + num(p.y) + ", " + num(p.z) +
+                                 ") is off a + t (b - a) by " + num(static_cast<double>(err / scale)) + " relative");
+    }
+  }
+
+  // ---- 2. boundary positions ----
+  for (std::size_t k = 0; k < src.loop.size(); ++k) {
+    const int v = src.loop[k];
+    if (v < 0 || static_cast<std::size_t>(v) >= nv) continue;
+    const Point2 &u = res.uv[v], &p = prescribed[k];
+    if (!same_bits(u.x, p.x) || !same_bits(u.y, p.y))
+      add("boundary_uv", "loop position " + std::to_string(k) + " (vertex " + std::to_string(v) + ") has uv (" +
+                             num(u.x) + ", " + num(u.y) + "), prescribed (" + num(p.x) + ", " + num(p.y) + ")");
+  }
+
+  // ---- 3. positive faces; 5. no face flat in 3D ----
+  for (std::size_t f = 0; f < res.faces.size(); ++f) {
+    const Triangle& t = res.faces[f];
+    ++rep.faces_checked;
+    const int o = orient(res.uv[t[0]], res.uv[t[1]], res.uv[t[2]]);
+    if (o <= 0)
+      add("positive", "face " + std::to_string(f) + " (" + std::to_string(t[0]) + ", " + std::to_string(t[1]) + ", " +
+                          std::to_string(t[2]) + ") is " + (o < 0 ? "clockwise" : "degenerate") + " in uv");
+    if (t[0] == t[1] || t[1] == t[2] || t[0] == t[2]) {
+      add("degenerate_3d", "face " + std::to_string(f) + " repeats a vertex");
+      continue;
+    }
+    // All three corners on one original edge e: each corner is an endpoint of e or inserted on e.
+    std::vector<std::pair<int, int>> candidates;
+    for (int c = 0; c < 3; ++c)
+      if (on_edge[t[c]].first >= 0) candidates.push_back(on_edge[t[c]]);
+    if (candidates.empty()) continue;  // three original vertices: a source face (area checked below)
+    for (const auto& e : candidates) {
+      bool all = true;
+      for (int c = 0; c < 3 && all; ++c) {
+        const int v = t[c];
+        all = v == e.first || v == e.second || on_edge[v] == e;
+      }
+      if (all) {
+        add("degenerate_3d", "face " + std::to_string(f) + " has all three corners on original edge (" +
+                                 std::to_string(e.first) + ", " + std::to_string(e.second) + ")");
+        break;
+      }
+    }
+  }
+
+  // ---- disk structure of the result ----
+  const auto res_edges = edge_uses(res.faces);
+  std::vector<char> used(nv, 0);
+  for (const Triangle& t : res.faces)
+    for (int c : t) used[c] = 1;
+  for (std::size_t v = 0; v < nv; ++v)
+    if (!used[v]) add("disk", "vertex " + std::to_string(v) + " is used by no face");
+  std::unordered_map<int, int> boundary_next;  // directed boundary edge a -> b (interior on the left)
+  std::size_t boundary_edges = 0;
+  for (const auto& [k, u] : res_edges) {
+    const int lo = static_cast<int>(k >> 32), hi = static_cast<int>(k & 0xffffffffu);
+    if (u.count > 2) add("disk", "edge (" + std::to_string(lo) + ", " + std::to_string(hi) + ") has " + std::to_string(u.count) + " faces");
+    if (u.forward > 1 || u.backward > 1)
+      add("disk", "edge (" + std::to_string(lo) + ", " + std::to_string(hi) + ") is used twice in the same direction");
+    if (u.count == 1) {
+      ++boundary_edges;
+      if (u.forward == 1) boundary_next[lo] = hi;
+      else boundary_next[hi] = lo;
+    }
+  }
+  const long long euler = static_cast<long long>(std::count(used.begin(), used.end(), 1)) -
+                          static_cast<long long>(res_edges.size()) + static_cast<long long>(res.faces.size());
+  if (euler != 1) add("disk", "V - E + F = " + std::to_string(euler) + " (a disk has 1)");
+  // The boundary loop must be the source's loop, same direction, as a cycle.
+  std::vector<char> on_boundary(nv, 0);
+  if (boundary_edges != src.loop.size()) {
+    add("disk", std::to_string(boundary_edges) + " boundary edges, the source loop has " + std::to_string(src.loop.size()));
+  }
+  for (std::size_t k = 0; k < src.loop.size(); ++k) {
+    const int a = src.loop[k], b = src.loop[(k + 1) % src.loop.size()];
+    if (a >= 0 && static_cast<std::size_t>(a) < nv) on_boundary[a] = 1;
+    auto it = boundary_next.find(a);
+    if (it == boundary_next.end() || it->second != b) {
+      add("disk", "source boundary edge " + std::to_string(a) + " -> " + std::to_string(b) +
+                      " is not a boundary edge of the result in that direction");
+    }
+  }
+  for (const auto& [a, b] : boundary_next)
+    if (a < 0 || static_cast<std::size_t>(a) >= nv || !on_boundary[a])
+      add("disk", "boundary edge " + std::to_string(a) + " -> " + std::to_string(b) + " is not on the source loop");
+  // One fan per vertex: the link of v (for each face at v, an edge between its two other corners) must be
+  // connected. Faces are grouped by vertex, then a small union-find runs on each link.
+  {
+    std::vector<std::array<int, 3>> corners;  // (v, w1, w2)
+    corners.reserve(res.faces.size() * 3);
+    for (const Triangle& t : res.faces)
+      for (int c = 0; c < 3; ++c) corners.push_back({t[c], t[(c + 1) % 3], t[(c + 2) % 3]});
+    std::sort(corners.begin(), corners.end());
+    std::vector<int> ids, parent;
+    auto find = [&](int x) {
+      while (parent[x] != x) x = parent[x] = parent[parent[x]];
+      return x;
+    };
+    for (std::size_t i = 0; i < corners.size();) {
+      std::size_t j = i;
+      while (j < corners.size() && corners[j][0] == corners[i][0]) ++j;
+      ids.clear();
+      for (std::size_t k = i; k < j; ++k) {
+        ids.push_back(corners[k][1]);
+        ids.push_back(corners[k][2]);
+      }
+      std::sort(ids.begin(), ids.end());
+      ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+      parent.resize(ids.size());
+      for (std::size_t k = 0; k < ids.size(); ++k) parent[k] = static_cast<int>(k);
+      auto local = [&](int w) { return static_cast<int>(std::lower_bound(ids.begin(), ids.end(), w) - ids.begin()); };
+      int components = static_cast<int>(ids.size());
+      for (std::size_t k = i; k < j; ++k) {
+        const int x = find(local(corners[k][1])), y = find(local(corners[k][2]));
+        if (x != y) {
+          parent[x] = y;
+          --components;
+        }
+      }
+      if (components != 1)
+        add("disk", "vertex " + std::to_string(corners[i][0]) + ": its faces form " + std::to_string(components) +
+                        " fans (a disk has one per vertex)");
+      i = j;
+    }
+  }
+
+  // ---- 4. angle sums (and the prescribed rotation indices at the boundary) ----
+  std::vector<long double> theta(nv, 0);
+  for (const Triangle& t : res.faces)
+    for (int c = 0; c < 3; ++c) theta[t[c]] += corner_angle(res.uv[t[c]], res.uv[t[(c + 1) % 3]], res.uv[t[(c + 2) % 3]]);
+  for (std::size_t v = 0; v < nv; ++v) {
+    if (!used[v] || on_boundary[v]) continue;
+    ++rep.interior_vertices_checked;
+    const long double err = std::fabs(theta[v] - kTwoPi);
+    rep.max_angle_error = std::max(rep.max_angle_error, static_cast<double>(err));
+    const long long turns = std::llround(theta[v] / kTwoPi);
+    if (err > 1e-6L)
+      add("angle_sum", "interior vertex " + std::to_string(v) + ": uv angles sum to " + num(static_cast<double>(theta[v])) +
+                           " = " + num(static_cast<double>(theta[v] / kTwoPi)) + " turns (" + std::to_string(turns) +
+                           "), not 2 pi");
+  }
+  if (rotation_indices && rotation_indices->size() == src.loop.size()) {
+    const std::size_t n = src.loop.size();
+    for (std::size_t k = 0; k < n; ++k) {
+      const long double alpha = interior_angle(prescribed[(k + n - 1) % n], prescribed[k], prescribed[(k + 1) % n]);
+      const int v = src.loop[k];
+      if (v < 0 || static_cast<std::size_t>(v) >= nv) continue;
+      const long double expected = alpha + kTwoPi * (*rotation_indices)[k];
+      if (std::fabs(theta[v] - expected) > 1e-6L)
+        add("rotation_index", "loop position " + std::to_string(k) + " (vertex " + std::to_string(v) +
+                                  "): uv angle sum " + num(static_cast<double>(theta[v])) + ", expected interior angle " +
+                                  num(static_cast<double>(alpha)) + " + 2 pi * " +
+                                  std::to_string((*rotation_indices)[k]));
+    }
+  }
+
+  // ---- 5. area ----
+  long double a_src = 0, a_res = 0;
+  for (const Triangle& t : src.faces) a_src += area3(src.vertices[t[0]], src.vertices[t[1]], src.vertices[t[2]]);
+  for (const Triangle& t : res.faces) a_res += area3(res.vertices[t[0]], res.vertices[t[1]], res.vertices[t[2]]);
+  rep.area_relative_error = a_src > 0 ? static_cast<double>(std::fabs(a_res - a_src) / a_src) : 0.0;
+  if (!(rep.area_relative_error <= 1e-9))
+    add("area", "3D area " + num(static_cast<double>(a_res)) + " vs source " + num(static_cast<double>(a_src)) +
+                    " (relative error " + num(rep.area_relative_error) + ")");
+  return rep;
+}
+
+}  // namespace lipmap::mapcheck
