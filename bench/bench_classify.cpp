@@ -5,7 +5,8 @@
 // Cases: nearly simple boundaries (noisy circles, gently wavy star-shaped polygons) of 100 .. 5000
 // vertices, where App. C's ear reduction should leave almost nothing for the O(n^3) table, and heavily
 // overlapping spiral strips (a strip bent through 2, 3, 4 turns whose layers overlap) of 100 .. 1500
-// vertices, where it cannot. For each case: median wall time of classify over N runs (default 5), the
+// vertices, where it cannot; then weakly self-overlapping double loops (turning number 3, 4) of 300 and
+// 1000 vertices, classified freely and with the hub's rotation index given. For each case: median wall time of classify over N runs (default 5), the
 // verdict, stats.reduced_vertices, stats.table_bytes, and the peak RSS of the process that ran the case.
 // Each case runs in its own forked child so that ru_maxrss is that case's peak, not the running maximum.
 // A case whose runs exceed the time budget stops early (marked '*' with the runs done); a single run that
@@ -20,9 +21,11 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <optional>
 #include <string>
 #include <thread>
 #include <vector>
@@ -39,6 +42,7 @@ struct Case {
   std::string kind;
   int n_requested = 0;
   Poly poly;
+  std::optional<std::vector<int>> rotation_indices;
 };
 
 struct Result {
@@ -53,15 +57,30 @@ struct Result {
   std::string error;
 };
 
-lipmap::BoundaryPolygon to_boundary(const Poly& p) {
+lipmap::BoundaryPolygon to_boundary(const Case& c) {
   lipmap::BoundaryPolygon b;
-  for (const auto& q : p) b.vertices.push_back({q.x, q.y});
+  for (const auto& q : c.poly) b.vertices.push_back({q.x, q.y});
+  b.rotation_indices = c.rotation_indices;
   return b;
+}
+
+// The double loop: hubs (-0.05, 0), (0.05, 0), then m points on r = 1 + 0.3 cos(t/2) winding `loops` times
+// around them; weakly self-overlapping, turning number loops + 1 (the fan from the first hub has
+// R = loops there). Same construction as tests/support (make_double_loop), without its CGAL checks.
+Poly double_loop(int loops, int m) {
+  Poly p{{-0.05, 0}, {0.05, 0}};
+  const double pi = lipmap::testgen::kPi;
+  const double ta = pi / 2 + 0.1, tb = pi / 2 + 2 * pi * loops - 0.1;
+  for (int k = 0; k < m; ++k) {
+    const double t = ta + (tb - ta) * k / (m - 1), r = 1 + 0.3 * std::cos(t / 2);
+    p.push_back({r * std::cos(t), r * std::sin(t)});
+  }
+  return p;
 }
 
 Result run_case(const Case& c, int runs, double budget_s) {
   Result r;
-  const lipmap::BoundaryPolygon bp = to_boundary(c.poly);
+  const lipmap::BoundaryPolygon bp = to_boundary(c);
   std::vector<double> ms;
   const auto start = std::chrono::steady_clock::now();
   for (int k = 0; k < runs; ++k) {
@@ -205,15 +224,24 @@ int main(int argc, char** argv) {
   const std::vector<double> spiral_turns = quick ? std::vector<double>{2, 3} : std::vector<double>{2, 3, 4};
   for (int n : simple_sizes) {
     Rng rng(1000 + (unsigned)n);
-    cases.push_back({"noisy circle", n, lipmap::testgen::noisy_circle(n, 0.05, rng)});
-    cases.push_back({"wavy polygon", n, lipmap::testgen::wavy_polygon(n, rng)});
+    cases.push_back({"noisy circle", n, lipmap::testgen::noisy_circle(n, 0.05, rng), std::nullopt});
+    cases.push_back({"wavy polygon", n, lipmap::testgen::wavy_polygon(n, rng), std::nullopt});
   }
   for (double turns : spiral_turns)
     for (int n : spiral_sizes) {
       Rng rng(2000 + (unsigned)n);
       char kind[64];
       std::snprintf(kind, sizeof kind, "spiral strip %.0f turns", turns);
-      cases.push_back({kind, n, lipmap::testgen::overlapping_spiral(n, turns, rng)});
+      cases.push_back({kind, n, lipmap::testgen::overlapping_spiral(n, turns, rng), std::nullopt});
+    }
+  // Weakly self-overlapping (turning number > 1): free rotation search, and the same with the fan's R given.
+  for (int loops : quick ? std::vector<int>{2} : std::vector<int>{2, 3})
+    for (int n : quick ? std::vector<int>{300} : std::vector<int>{300, 1000}) {
+      const Poly p = double_loop(loops, n - 2);
+      std::vector<int> R(p.size(), 0);
+      R[0] = loops;
+      cases.push_back({"double loop x" + std::to_string(loops), n, p, std::nullopt});
+      cases.push_back({"double loop x" + std::to_string(loops) + " R given", n, p, R});
     }
 
   std::printf("%-24s %6s %12s %5s %-24s %8s %12s %12s\n", "case", "n", "median ms", "runs", "verdict", "reduced",

@@ -250,6 +250,44 @@ TEST(ClassifyPrescribed, TreesReproduceTheirOwnRotationIndices) {
   bad.expect_none("trees with R violating the sum rule");
 }
 
+// The same with lattice trees (exact collinearities, distinct vertices at one point) and trees wrapped
+// 3 to kMaxRotationIndex turns around one hub.
+TEST(ClassifyPrescribed, LatticeAndDeepHubTreesReproduceTheirOwnRotationIndices) {
+  Collector ok, bad;
+  for (Family f : {Family::lattice_tree, Family::deep_hub_tree})
+    for (const GenCase& c : generate(f, default_count(f))) {
+      ASSERT_EQ(sum_of(c.certificate_R), c.turning - 1) << c.name();
+      ok.add(c.poly.size(), check_prescribed(c.name(), c.poly, c.certificate_R, true));
+      std::vector<int> more = c.certificate_R;
+      more[c.seed % more.size()] += 1;
+      if (more[c.seed % more.size()] <= kMaxRotationIndex)
+        bad.add(c.poly.size(), check_prescribed(c.name(), c.poly, more, false));
+    }
+  ok.expect_none("lattice / deep-hub trees with their own R");
+  bad.expect_none("lattice / deep-hub trees with R violating the sum rule");
+}
+
+// Hubs closer and closer together (down to 1e-12 apart, nearly degenerate triangle (O1, O2, v_1)): the
+// fans stay certificates (checked exactly), the prescriptions stay feasible / infeasible.
+TEST(ClassifyPrescribed, DoubleLoopWithNearlyCoincidentHubs) {
+  Collector col;
+  for (int loops = 1; loops <= 2; ++loops)
+    for (double eps : {1e-3, 1e-6, 1e-9, 1e-12}) {
+      const DoubleLoop d = make_double_loop(loops, 16 * loops, eps);
+      const size_t n = d.poly.size();
+      const std::string name = "double_loop_L" + std::to_string(loops) + "_eps" + std::to_string(eps);
+      ASSERT_EQ(turning_number(d.poly), loops + 1) << name;
+      const std::vector<int> R_O1 = unit(n, {{0, loops}}), R_O2 = unit(n, {{1, loops}});
+      ASSERT_TRUE(check_triangulation(d.poly, d.fan_O1, R_O1).ok()) << name;
+      ASSERT_TRUE(check_triangulation(d.poly, d.fan_O2, R_O2).ok()) << name;
+      col.add(n, check_prescribed(name, d.poly, R_O1, true));
+      col.add(n, check_prescribed(name, d.poly, R_O2, true));
+      col.add(n, check_prescribed(name, d.poly, std::vector<int>(n, 0), false));
+      col.add(n, check_prescribed(name, d.poly, unit(n, {{d.outermost, loops}}), false));
+    }
+  col.expect_none("double loops with nearly coincident hubs");
+}
+
 TEST(ClassifyPrescribed, DoubleLoopFamilyReproducesItsFanIndices) {
   Collector col;
   for (const GenCase& c : generate(Family::double_loop, default_count(Family::double_loop), 3)) {
@@ -289,7 +327,7 @@ TEST(ClassifyPrescribed, GridImagesWithZeroIndices) {
 // satisfies the sum rule is tried (all of T - 1 on one vertex, or spread), for T <= 0 all zeros.
 TEST(ClassifyPrescribed, NegativeFamiliesRejectEveryPrescription) {
   Collector col;
-  for (Family f : {Family::curls, Family::figure_eight, Family::grid_reversed}) {
+  for (Family f : {Family::curls, Family::figure_eight, Family::grid_reversed, Family::flower}) {
     for (const GenCase& c : generate(f, 25, 5)) {
       std::vector<int> R(c.poly.size(), 0);
       if (c.turning >= 2) R[c.seed % R.size()] = c.turning - 1;
@@ -302,6 +340,50 @@ TEST(ClassifyPrescribed, NegativeFamiliesRejectEveryPrescription) {
     }
   }
   col.expect_none("negative families with prescriptions");
+}
+
+// Small polygons against the exhaustive oracle: EVERY rotation-index vector with sum R = T - 1 (all of
+// them, enumerated) must succeed iff some positive triangulation realizes it. This exercises the
+// "set of feasible end-rotation pairs" of the table (DESIGN.md section 3): a table keeping one choice per
+// entry misses some of the realizable vectors.
+void all_vectors_with_sum(int n, int sum, std::vector<int>& cur, int pos, std::vector<std::vector<int>>& out) {
+  if (pos == n - 1) {
+    cur[size_t(pos)] = sum;
+    out.push_back(cur);
+    return;
+  }
+  for (int v = 0; v <= sum; ++v) {
+    cur[size_t(pos)] = v;
+    all_vectors_with_sum(n, sum - v, cur, pos + 1, out);
+  }
+}
+
+TEST(ClassifyPrescribed, SmallPolygonsEveryRotationVectorAgainstExhaustiveOracle) {
+  Collector feasible, infeasible;
+  size_t vectors = 0;
+  for (const GenCase& c : generate(Family::small, default_count(Family::small), 1)) {
+    const int n = (int)c.poly.size();
+    if (c.turning < 1 || c.turning > 4) {
+      infeasible.add(c.poly.size(), check_prescribed(c.name(), c.poly, std::vector<int>(size_t(n), 0), false));
+      continue;
+    }
+    std::vector<std::vector<int>> all;
+    std::vector<int> cur(size_t(n), 0);
+    all_vectors_with_sum(n, c.turning - 1, cur, 0, all);
+    for (const std::vector<int>& R : all) {
+      ++vectors;
+      const bool ok = std::find(c.feasible_R.begin(), c.feasible_R.end(), R) != c.feasible_R.end();
+      (ok ? feasible : infeasible).add(c.poly.size(), check_prescribed(c.name(), c.poly, R, ok));
+    }
+    // Off the sum rule: one more at vertex 0.
+    std::vector<int> more(size_t(n), 0);
+    more[0] = c.turning;
+    infeasible.add(c.poly.size(), check_prescribed(c.name(), c.poly, more, false));
+  }
+  EXPECT_GE(feasible.total, 150u);
+  EXPECT_GE(infeasible.total, 500u);
+  feasible.expect_none("small polygons, realizable R (oracle)");
+  infeasible.expect_none("small polygons, unrealizable R (oracle)");
 }
 
 TEST(ClassifyPrescribed, RotationIndexInputErrors) {

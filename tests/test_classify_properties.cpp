@@ -296,8 +296,18 @@ TEST(ClassifyGenerators, KnownAnswersHoldForEveryFamily) {
           EXPECT_GE(c.turning, 2);
           break;
         case Expect::not_self_overlapping:
-          // Either T <= 0 (sum R = T - 1 < 0 is impossible), or a point of negative winding number.
-          if (c.turning >= 1) {
+          // Either T <= 0 (sum R = T - 1 < 0 is impossible), or a point of negative winding number, or
+          // (flowers) points of winding number 0 inside the fans of the pinch vertices.
+          for (const Pt& q : c.zero_probes) {
+            bool on = true;
+            EXPECT_EQ(winding_number(c.poly, q, &on), 0);
+            EXPECT_FALSE(on);
+          }
+          // (small) or the exhaustive oracle found no positive triangulation at all.
+          if (f == Family::small) {
+            const OracleResult o = exhaustive_triangulations(c.poly);
+            EXPECT_TRUE(o.complete && o.by_R.empty());
+          } else if (c.turning >= 1 && c.zero_probes.empty()) {
             ASSERT_FALSE(c.negative_probes.empty());
             for (const Pt& q : c.negative_probes) {
               bool on = true;
@@ -318,7 +328,7 @@ TEST(ClassifyGenerators, KnownAnswersHoldForEveryFamily) {
     }
     // The overlap families really overlap; the simple ones are simple.
     if (f == Family::exp_strip || f == Family::power_map || f == Family::spiral_overlap || f == Family::bent_strip ||
-        f == Family::double_loop || f == Family::figure_eight || f == Family::curls)
+        f == Family::double_loop || f == Family::figure_eight || f == Family::curls || f == Family::flower)
       EXPECT_GE(nonsimple, count * 9 / 10) << family_name(f);
     if (is_simple_family(f) || f == Family::spiral_thin) EXPECT_EQ(nonsimple, 0) << family_name(f);
   }
@@ -334,6 +344,63 @@ TEST(ClassifyGenerators, TreesCoverSeveralTurningNumbersAndCurlsCoverZeroOneTwo)
   EXPECT_GE(curl_T[0], 5);
   EXPECT_GE(curl_T[1], 5);
   EXPECT_GE(curl_T[2], 5);
+}
+
+// The oracle agrees with the certificates it must find and the negatives it must not.
+TEST(ClassifyGenerators, ExhaustiveOracleAgreesWithKnownCases) {
+  {
+    const OracleResult o = exhaustive_triangulations(square());
+    ASSERT_TRUE(o.complete);
+    EXPECT_EQ(o.positive_triangulations, 2);
+    ASSERT_EQ(o.by_R.size(), 1u);
+    EXPECT_EQ(o.by_R.begin()->first, std::vector<int>(4, 0));
+  }
+  EXPECT_TRUE(exhaustive_triangulations(reversed(square())).by_R.empty());
+  EXPECT_TRUE(exhaustive_triangulations({{0, 0}, {1, 1}, {1, 0}, {0, 1}}).by_R.empty());
+  // Double loops: the fans' R are realized (and, L = 1, nothing else).
+  for (int loops = 1; loops <= 2; ++loops) {
+    const DoubleLoop d = make_double_loop(loops, 4 * loops + 1, 0.05);
+    const OracleResult o = exhaustive_triangulations(d.poly);
+    ASSERT_TRUE(o.complete);
+    std::vector<int> R1(d.poly.size(), 0), R2(d.poly.size(), 0);
+    R1[0] = loops;
+    R2[1] = loops;
+    EXPECT_TRUE(o.by_R.count(R1));
+    EXPECT_TRUE(o.by_R.count(R2));
+    if (loops == 1) EXPECT_EQ(o.by_R.size(), 2u);
+  }
+  // Small trees: their own R is realized; small stars: only R = 0; small figure eights: nothing.
+  int trees = 0;
+  for (const GenCase& c : generate(Family::tree, 250))
+    if (c.poly.size() <= 11) {
+      ++trees;
+      const OracleResult o = exhaustive_triangulations(c.poly);
+      ASSERT_TRUE(o.complete) << c.name();
+      EXPECT_TRUE(o.by_R.count(c.certificate_R)) << c.name();
+    }
+  EXPECT_GE(trees, 5);
+  for (const GenCase& c : generate(Family::star, 120))
+    if (c.poly.size() <= 11) {
+      const OracleResult o = exhaustive_triangulations(c.poly);
+      ASSERT_TRUE(o.complete);
+      ASSERT_EQ(o.by_R.size(), 1u) << c.name();
+      EXPECT_EQ(o.by_R.begin()->first, std::vector<int>(c.poly.size(), 0));
+    }
+  for (const GenCase& c : generate(Family::figure_eight, 50))
+    if (c.poly.size() <= 11) EXPECT_TRUE(exhaustive_triangulations(c.poly).by_R.empty()) << c.name();
+  // The small family has every kind of answer, and several realizable R vectors often.
+  std::map<Expect, int> kinds;
+  int multi = 0, t2_negative = 0;
+  for (const GenCase& c : generate(Family::small, default_count(Family::small))) {
+    ++kinds[c.expect];
+    multi += c.feasible_R.size() >= 2;
+    t2_negative += c.turning >= 2 && c.feasible_R.empty();
+  }
+  EXPECT_GE(kinds[Expect::not_self_overlapping], 50);
+  EXPECT_GE(kinds[Expect::weakly_self_overlapping], 30);
+  EXPECT_GE(kinds[Expect::simple_or_self_overlapping], 30);
+  EXPECT_GE(multi, 20);
+  EXPECT_GE(t2_negative, 5);
 }
 
 TEST(ClassifyGenerators, DoubleLoopFansAreCertificates) {
@@ -360,8 +427,90 @@ TEST(ClassifyProperty, StarBothOrientations) { run_family(Family::star, true); }
 TEST(ClassifyProperty, DeformedCircleBothOrientations) { run_family(Family::deformed_circle, true); }
 TEST(ClassifyProperty, CombBothOrientations) { run_family(Family::comb, true); }
 TEST(ClassifyProperty, ZigzagBothOrientations) { run_family(Family::zigzag, true); }
+TEST(ClassifyProperty, DartFalseEarBothOrientations) { run_family(Family::dart, true); }
+TEST(ClassifyProperty, PinchedFlower) { run_family(Family::flower); }
+// Small polygons against the exhaustive oracle (every positive triangulation enumerated).
+TEST(ClassifyProperty, SmallPolygonsAgainstExhaustiveOracle) { run_family(Family::small); }
 TEST(ClassifyProperty, TreeOfTriangles) { run_family(Family::tree); }
 TEST(ClassifyProperty, DoubleLoop) { run_family(Family::double_loop); }
+TEST(ClassifyProperty, LatticeTreeCollinearAndPinched) { run_family(Family::lattice_tree); }
+TEST(ClassifyProperty, DeepHubTreeUpToMaxRotationIndex) { run_family(Family::deep_hub_tree); }
+
+// A tree wrapped 7 or 8 turns around one hub is weakly self-overlapping by construction (its own
+// triangulation is the certificate), although R_hub exceeds kMaxRotationIndex, which bounds only what a
+// caller may prescribe. Unprescribed, the verdict must still be weakly_self_overlapping: answering
+// not_self_overlapping would claim that no locally injective map exists for any mesh.
+TEST(ClassifyProperty, HubBeyondMaxRotationIndexIsStillWeaklySelfOverlapping) {
+  TreeOptions o;
+  o.deep_min_turns = kMaxRotationIndex + 1;
+  o.deep_max_turns = kMaxRotationIndex + 2;
+  o.family = "tree_beyond_kmax";
+  std::vector<Failure> failures;
+  size_t total = 0;
+  for (std::uint64_t s = 0; s < 200 && total < 4; ++s) {
+    const std::optional<GenCase> c = gen_tree(900000 + s, o);
+    if (!c) continue;
+    ASSERT_GT(*std::max_element(c->certificate_R.begin(), c->certificate_R.end()), kMaxRotationIndex);
+    ++total;
+    if (auto f = run_case(*c)) failures.push_back(*f);
+  }
+  ASSERT_EQ(total, 4u);
+  report("trees with R_hub > kMaxRotationIndex", total, failures);
+}
+
+// Big inputs, still with known answers: star-shaped noisy circles (simple by construction) and the
+// benchmark's overlapping spiral strips, whose grid mesh is verified locally injective here.
+TEST(ClassifyProperty, LargeVerifiedPolygons) {
+  std::vector<GenCase> cases;
+  for (int n : {2000, 4000}) {
+    Rng rng(31 + n);
+    GenCase c;
+    c.family = "noisy_circle_" + std::to_string(n);
+    c.poly = noisy_circle(n, 0.05, rng);
+    c.expect = Expect::simple;
+    c.turning = 1;
+    cases.push_back(c);
+  }
+  for (int n : {600, 1500})
+    for (double turns : {2.0, 4.0}) {
+      Rng rng(2000 + (unsigned)n);
+      const GridMesh m = spiral_strip_mesh(1, std::max(4, n / 2 - 1), turns, 1.0, 0.15, 1.6, rng);
+      ASSERT_TRUE(verify_locally_injective(m));
+      GenCase c;
+      c.family = "spiral_" + std::to_string(n) + "_" + std::to_string((int)turns);
+      c.poly = m.boundary_polygon();
+      c.expect = Expect::simple_or_self_overlapping;
+      c.turning = 1;
+      cases.push_back(c);
+    }
+  for (std::uint64_t seed : {1u, 2u}) {  // a long bent strip, fine grid
+    Rng rng(seed);
+    const int ns = 700;
+    // (rho, theta) as (x, y): the Jacobian determinant is the radius > 0.
+    const GridMesh m = make_grid_mesh(
+        2, ns,
+        [&](int i, int j) {
+          const double th = 5 * kTwoPi * j / ns, rad = 1 + 0.05 * th + 0.25 * i;  // 5 turns, overlapping layers
+          return Pt{rad * std::cos(th), rad * std::sin(th)};
+        },
+        rng);
+    ASSERT_TRUE(verify_locally_injective(m));
+    GenCase c;
+    c.family = "spiral5_" + std::to_string(seed);
+    c.seed = seed;
+    c.poly = m.boundary_polygon();
+    c.expect = Expect::simple_or_self_overlapping;
+    c.turning = 1;
+    cases.push_back(c);
+  }
+  std::vector<Failure> failures;
+  for (const GenCase& c : cases) {
+    ASSERT_TRUE(well_conditioned(c.poly)) << c.name();
+    ASSERT_EQ(turning_number(c.poly), 1) << c.name();
+    if (auto f = run_case(c)) failures.push_back(*f);
+  }
+  report("large polygons", cases.size(), failures);
+}
 TEST(ClassifyProperty, FigureEight) { run_family(Family::figure_eight); }
 TEST(ClassifyProperty, NegativeTrochoid) { run_family(Family::negative_trochoid); }
 TEST(ClassifyProperty, CurlsWithNegativeWinding) { run_family(Family::curls); }
@@ -406,13 +555,14 @@ TEST(ClassifyProperty, HandCases) {
   report("hand cases", cases.size(), failures);
 }
 
-// Exact transformations preserve the verdict: cyclic relabeling, rotation by 90 degrees, scaling by 2, and
-// mirroring followed by reversal (which keeps the interior on the left). All are exact in floating point,
+// Exact transformations preserve the verdict: cyclic relabeling, rotation by 90 degrees, scaling by 2,
+// 2^-40 and 2^40, and mirroring followed by reversal (which keeps the interior on the left). All are exact in floating point,
 // so simplicity, turning number and winding numbers are unchanged.
 TEST(ClassifyProperty, VerdictInvariantUnderExactTransformations) {
   std::vector<GenCase> base;
   for (Family f : {Family::exp_strip, Family::spiral_overlap, Family::star, Family::comb, Family::tree,
-                   Family::double_loop, Family::curls, Family::figure_eight}) {
+                   Family::double_loop, Family::curls, Family::figure_eight, Family::lattice_tree,
+                   Family::dart, Family::flower}) {
     std::vector<GenCase> cs = generate(f, 12, 77);
     base.insert(base.end(), cs.begin(), cs.end());
   }
@@ -420,7 +570,7 @@ TEST(ClassifyProperty, VerdictInvariantUnderExactTransformations) {
   size_t total = 0;
   for (const GenCase& c : base) {
     const size_t n = c.poly.size();
-    for (int variant = 0; variant < 4; ++variant) {
+    for (int variant = 0; variant < 6; ++variant) {
       GenCase v = c;
       v.certificate.clear();
       v.certificate_R.clear();
@@ -444,6 +594,14 @@ TEST(ClassifyProperty, VerdictInvariantUnderExactTransformations) {
           for (Pt& q : v.poly) q.y = -q.y;
           v.poly = reversed(v.poly);
           v.family += "_mirror_reversed";
+          break;
+        case 4:
+          for (Pt& q : v.poly) q = {std::ldexp(q.x, -40), std::ldexp(q.y, -40)};
+          v.family += "_scale2^-40";
+          break;
+        case 5:
+          for (Pt& q : v.poly) q = {std::ldexp(q.x, 40), std::ldexp(q.y, 40)};
+          v.family += "_scale2^40";
           break;
       }
       ++total;

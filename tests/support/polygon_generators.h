@@ -14,8 +14,8 @@
 //      self-overlapping, the construction is a certificate triangulation with known R_i; and the
 //      "double loop" with two hubs, whose hub fans are certificates.
 //  1d  not self-overlapping: turning number <= 0 (figure eights, clockwise curves, negative trochoids;
-//      every weakly self-overlapping polygon has T = 1 + sum R_i >= 1), and curls with a region of
-//      negative winding number (see gen_curls).
+//      every weakly self-overlapping polygon has T = 1 + sum R_i >= 1), curls with a region of negative
+//      winding number (see gen_curls), and pinched flowers (T = 1, no negative winding; see gen_flower).
 #pragma once
 
 #include <algorithm>
@@ -230,6 +230,8 @@ struct GenCase {
   std::vector<Tri> certificate;    // a valid triangulation when the construction gives one
   std::vector<int> certificate_R;  // its rotation indices
   std::vector<Pt> negative_probes; // points of negative winding number (1d curls)
+  std::vector<Pt> zero_probes;     // points of winding number 0 next to a pinch point (1d flowers)
+  std::vector<std::vector<int>> feasible_R;  // small polygons: every realizable R vector (exhaustive oracle)
   std::string name() const { return family + "#" + std::to_string(seed) + " [n=" + std::to_string(poly.size()) + "; " + params + "]"; }
 };
 
@@ -544,6 +546,41 @@ inline std::optional<GenCase> gen_zigzag(std::uint64_t seed) {
   return c;
 }
 
+// 1b: a dart. B = (0, 0), A on the positive x axis, C below it (so (A, B, C) is counterclockwise), then a
+// chain D_1..D_k from C back to A strictly inside the triangle ABC, at increasing angles around B. The
+// polygon [A, B, C, D_1, .., D_k] is star-shaped from B, hence simple and counterclockwise; but B is a
+// false ear: its triangle ABC contains the whole chain, which touches the ear's sides only at A and C.
+// Randomly rotated / scaled and cyclically relabeled.
+inline std::optional<GenCase> gen_dart(std::uint64_t seed) {
+  Rng r(seed);
+  GenCase c;
+  c.family = "dart";
+  c.seed = seed;
+  const double la = r.uniform(1, 3), lc = r.uniform(1, 3), thc = r.uniform(0.4, 2.6);
+  const Pt A{la, 0}, B{0, 0}, C{lc * std::cos(-thc), lc * std::sin(-thc)};
+  const int k = r.integer(1, 10);
+  std::vector<double> ang(k);
+  for (double& a : ang) a = -thc + thc * r.uniform(0.02, 0.98);
+  std::sort(ang.begin(), ang.end());
+  Poly p{A, B, C};
+  for (double a : ang) {
+    // distance from B to the chord AC along direction a
+    const double dx = std::cos(a), dy = std::sin(a);
+    const double ex = C.x - A.x, ey = C.y - A.y;
+    const double den = dx * ey - dy * ex;
+    if (std::fabs(den) < 1e-12) return std::nullopt;
+    const double t = (A.x * ey - A.y * ex) / den;
+    const double rad = t * r.uniform(0.15, 0.95);
+    p.push_back({rad * dx, rad * dy});
+  }
+  const size_t shift = (size_t)r.integer(0, (int)p.size() - 1);
+  std::rotate(p.begin(), p.begin() + long(shift), p.end());
+  c.poly = r.chance(0.5) ? transformed(p, r.uniform(0, kTwoPi), r.uniform(0.1, 10), r.uniform(-3, 3), r.uniform(-3, 3)) : p;
+  c.params = "k=" + std::to_string(k) + " B_at=" + std::to_string((p.size() + 1 - shift) % p.size());
+  if (!finish_simple_case(c)) return std::nullopt;
+  return c;
+}
+
 // The opposite orientation of a case: turning number -T <= -1, so never weakly self-overlapping.
 inline GenCase reversed_case(const GenCase& c) {
   GenCase r;
@@ -564,6 +601,7 @@ struct TriangleTree {
   std::vector<Pt> pos;
   std::vector<Tri> tris;       // counterclockwise, indices into pos
   std::vector<int> boundary;   // boundary loop (vertex ids), interior on the left
+  bool allow_coincident = false;  // may a new vertex sit where an old one is (never a neighbour of it)
 
   long double angle_sum(int v) const {
     long double s = 0;
@@ -586,8 +624,9 @@ struct TriangleTree {
     if (corner_angle(pos[q], pos[p], w) < min_angle || corner_angle(pos[p], w, pos[q]) < min_angle ||
         corner_angle(w, pos[q], pos[p]) < min_angle)
       return false;
-    for (const Pt& o : pos)
-      if (o == w) return false;
+    if (!allow_coincident)
+      for (const Pt& o : pos)
+        if (o == w) return false;
     const int id = (int)pos.size();
     pos.push_back(w);
     tris.push_back({q, p, id});
@@ -609,7 +648,7 @@ struct TriangleTree {
 // Converts a tree to a GenCase: polygon = boundary loop, certificate = the tree's triangles (renumbered),
 // R from the angle sums. Expected: weakly_self_overlapping when T = 1 + sum R >= 2 (every triangulation
 // then has sum R = T - 1 > 0), else simple or self_overlapping.
-inline bool finish_tree_case(GenCase& c, const TriangleTree& tree) {
+inline bool finish_tree_case(GenCase& c, const TriangleTree& tree, int max_R = kGenMaxRotationIndex) {
   std::vector<int> where(tree.pos.size(), -1);
   for (size_t k = 0; k < tree.boundary.size(); ++k) where[tree.boundary[k]] = (int)k;
   c.poly.clear();
@@ -622,7 +661,7 @@ inline bool finish_tree_case(GenCase& c, const TriangleTree& tree) {
   if (!rep.ok()) return false;
   int sum = 0;
   for (int v : R) {
-    if (v < 0 || v > kGenMaxRotationIndex) return false;
+    if (v < 0 || v > max_R) return false;
     sum += v;
   }
   if (!check_triangulation(c.poly, c.certificate, R).ok()) return false;
@@ -633,39 +672,54 @@ inline bool finish_tree_case(GenCase& c, const TriangleTree& tree) {
   return true;
 }
 
-// 1c: random tree of triangles; 0 to 2 hubs around which the growth wraps until the hub's triangulation
+// Options of gen_tree. Default: 0 to 2 hubs of 1 or 2 turns, real coordinates.
+struct TreeOptions {
+  bool lattice = false;      // snap every vertex to the grid (Z/4)^2: exact collinearities, and distinct
+                             // vertices at the same point (pinched polygons) are allowed
+  int deep_min_turns = 0;    // > 0: exactly one hub, wrapped deep_min_turns..deep_max_turns turns
+  int deep_max_turns = 0;
+  const char* family = "tree";
+};
+
+// 1c: random tree of triangles; hubs around which the growth wraps until the hub's triangulation
 // angle passes 2 pi * target (so R_hub = target >= 1 when target > 0).
-inline std::optional<GenCase> gen_tree(std::uint64_t seed) {
+inline std::optional<GenCase> gen_tree(std::uint64_t seed, const TreeOptions& opt = {}) {
   Rng r(seed);
   GenCase c;
-  c.family = "tree";
+  c.family = opt.family;
   c.seed = seed;
+  auto snap = [&](Pt q) { return opt.lattice ? Pt{std::round(q.x * 4) / 4, std::round(q.y * 4) / 4} : q; };
   TriangleTree t;
+  t.allow_coincident = opt.lattice;
   {
     const double a0 = r.uniform(0, kTwoPi);
-    const Pt A{0, 0}, B{std::cos(a0), std::sin(a0)};
     const double ang = r.uniform(0.5, 1.2), len = r.uniform(0.6, 1.4);
-    const Pt C{len * std::cos(a0 + ang), len * std::sin(a0 + ang)};
+    const double sc = opt.lattice ? 2.0 : 1.0;
+    const Pt A{0, 0}, B = snap({sc * std::cos(a0), sc * std::sin(a0)});
+    const Pt C = snap({sc * len * std::cos(a0 + ang), sc * len * std::sin(a0 + ang)});
     if (exact::orient(A, B, C) <= 0) return std::nullopt;
     t.pos = {A, B, C};
     t.tris = {{0, 1, 2}};
     t.boundary = {0, 1, 2};
   }
+  const bool deep = opt.deep_min_turns > 0;
   const int n_target = r.integer(6, 36);
-  const int hubs = r.chance(0.2) ? 0 : (r.chance(0.75) ? 1 : 2);
+  const int hubs = deep ? 1 : (r.chance(0.2) ? 0 : (r.chance(0.75) ? 1 : 2));
   std::vector<std::pair<int, long double>> hub_goal;  // vertex, angle sum to reach
   int total_target = 0;
   for (int h = 0; h < hubs; ++h) {
-    const int target = r.chance(0.8) ? 1 : 2;
+    const int target = deep ? r.integer(opt.deep_min_turns, opt.deep_max_turns) : (r.chance(0.8) ? 1 : 2);
     total_target += target;
     hub_goal.push_back({-1, kTwoPiL * target + (long double)r.uniform(0.4, 4.0)});
   }
+  const int max_vertices = deep ? 40 + 12 * opt.deep_max_turns : 70;
+  const double sc = opt.lattice ? 2.0 : 1.0;
   int guard = 0;
   size_t hub_index = 0;
   while (guard++ < 4000) {
     const bool hub_pending = hub_index < hub_goal.size();
     if (!hub_pending && (int)t.pos.size() >= n_target) break;
-    if ((int)t.pos.size() >= 70) return std::nullopt;
+    if ((int)t.pos.size() >= max_vertices) return std::nullopt;
     if (hub_pending && ((int)t.pos.size() >= n_target || r.chance(0.65))) {
       auto& [hub, goal] = hub_goal[hub_index];
       if (hub < 0) {
@@ -685,21 +739,21 @@ inline std::optional<GenCase> gen_tree(std::uint64_t seed) {
       while (t.boundary[e] != hub) ++e;
       const Pt H = t.pos[hub], Q = t.pos[t.boundary[(e + 1) % t.boundary.size()]];
       const double phi = std::atan2(Q.y - H.y, Q.x - H.x), delta = r.uniform(0.35, 1.0);
-      const double rho = std::clamp(std::hypot(Q.x - H.x, Q.y - H.y) * r.uniform(0.7, 1.3), 0.3, 3.0);
-      t.glue(e, {H.x + rho * std::cos(phi - delta), H.y + rho * std::sin(phi - delta)});
+      const double rho = std::clamp(std::hypot(Q.x - H.x, Q.y - H.y) * r.uniform(0.7, 1.3), 0.3 * sc, 3.0 * sc);
+      t.glue(e, snap({H.x + rho * std::cos(phi - delta), H.y + rho * std::sin(phi - delta)}));
     } else {
       const size_t e = (size_t)r.integer(0, (int)t.boundary.size() - 1);
       const Pt P = t.pos[t.boundary[e]], Q = t.pos[t.boundary[(e + 1) % t.boundary.size()]];
       const double dx = Q.x - P.x, dy = Q.y - P.y;
       const double out = r.uniform(0.3, 1.0), along = r.uniform(-0.5, 0.5);
       // right normal of P -> Q is (dy, -dx)
-      t.glue(e, {0.5 * (P.x + Q.x) + out * dy + along * dx, 0.5 * (P.y + Q.y) - out * dx + along * dy});
+      t.glue(e, snap({0.5 * (P.x + Q.x) + out * dy + along * dx, 0.5 * (P.y + Q.y) - out * dx + along * dy}));
     }
   }
   if (hub_index < hub_goal.size()) return std::nullopt;
-  if (!finish_tree_case(c, t)) return std::nullopt;
+  if (!finish_tree_case(c, t, std::max(kGenMaxRotationIndex, opt.deep_max_turns))) return std::nullopt;
   c.params = "hubs=" + std::to_string(hubs) + " hub_turns=" + std::to_string(total_target) +
-             " T=" + std::to_string(c.turning);
+             " T=" + std::to_string(c.turning) + (opt.lattice ? " lattice" : "");
   return c;
 }
 
@@ -899,14 +953,122 @@ inline std::optional<GenCase> gen_curls(std::uint64_t seed) {
   return c;
 }
 
+// 1d: a flower: k >= 2 petals, each a star-shaped loop [O, p_1..p_m] around its own angular sector of the
+// common point O, with gaps between the sectors; the polygon visits O once per petal (distinct vertices at
+// the same point). T = 1 (the petals turn sum(w_i) + k pi, the k corners at O turn sum(gap_i) - k pi) and no
+// winding number is negative, yet it is not weakly self-overlapping: the visit of O between petal i and
+// petal i+1 has the interior angle 2 pi - gap_i (from petal i+1's start round to petal i's end), so the
+// triangles at that vertex would sweep every direction except gap_i, and so cover points near O inside
+// another gap j, whose winding number is 0 (checked exactly at a probe point in every gap, kept in
+// zero_probes); a positive triangle covers only points of winding number >= 1.
+inline std::optional<GenCase> gen_flower(std::uint64_t seed) {
+  Rng r(seed);
+  GenCase c;
+  c.family = "flower";
+  c.seed = seed;
+  const int k = r.integer(2, 5);
+  const double slot = kTwoPi / k, start = r.uniform(0, kTwoPi);
+  Poly p;
+  std::vector<double> gap_mid;
+  double min_rad = 1e9;
+  for (int i = 0; i < k; ++i) {
+    const double g = slot * r.uniform(0.1, 0.5);
+    const double a0 = start + i * slot + g / 2, a1 = start + (i + 1) * slot - g / 2;
+    gap_mid.push_back(start + (i + 1) * slot);
+    const int m = r.integer(2, 8);
+    const double rad = r.uniform(0.5, 1.5);
+    p.push_back({0, 0});
+    for (int q = 0; q < m; ++q) {
+      const double a = a0 + (a1 - a0) * q / (m - 1), rr = rad * r.uniform(0.7, 1.3);
+      min_rad = std::min(min_rad, rr);
+      p.push_back({rr * std::cos(a), rr * std::sin(a)});
+    }
+  }
+  const size_t shift = (size_t)r.integer(0, (int)p.size() - 1);
+  std::rotate(p.begin(), p.begin() + long(shift), p.end());
+  c.poly = p;
+  c.turning = 1;
+  c.expect = Expect::not_self_overlapping;
+  c.params = "petals=" + std::to_string(k);
+  if (!well_conditioned(c.poly) || turning_number(c.poly) != 1) return std::nullopt;
+  for (double a : gap_mid) {
+    const Pt probe{1e-3 * min_rad * std::cos(a), 1e-3 * min_rad * std::sin(a)};
+    bool on = true;
+    if (winding_number(c.poly, probe, &on) != 0 || on) return std::nullopt;
+    c.zero_probes.push_back(probe);
+  }
+  return c;
+}
+
+// Small polygons (n <= max_n <= 12) whose answer comes from the exhaustive oracle (exhaustive_triangulations):
+// random points in a square, and "winding" polygons (points at increasing angles over 1 to 3 turns around
+// the origin with random radii, plus 0 to 2 points near the origin), which are often weakly self-overlapping
+// with several realizable rotation-index vectors.
+inline std::optional<GenCase> gen_small(std::uint64_t seed, int max_n = 10) {
+  Rng r(seed);
+  GenCase c;
+  c.family = "small";
+  c.seed = seed;
+  const int mode = r.integer(0, 2);
+  if (mode == 0) {
+    const int n = r.integer(4, max_n - 1);
+    for (int k = 0; k < n; ++k) c.poly.push_back({r.uniform(-1, 1), r.uniform(-1, 1)});
+    c.params = "random points";
+  } else {
+    const int hubs = r.integer(0, 2), loops = std::min(r.integer(1, 3 + (max_n > 10)), (max_n - hubs) / 3);
+    const int m = r.integer(3 * loops, max_n - hubs);
+    const double a0 = r.uniform(0, kTwoPi), total = kTwoPi * loops - r.uniform(0.3, 1.5);
+    for (int h = 0; h < hubs; ++h) c.poly.push_back({r.uniform(-0.3, 0.3), r.uniform(-0.3, 0.3)});
+    std::vector<double> a(m);
+    for (double& x : a) x = r.uniform(0, total);
+    std::sort(a.begin(), a.end());
+    for (int k = 0; k < m; ++k) {
+      const double rad = r.uniform(0.4, 1.6);
+      c.poly.push_back({rad * std::cos(a0 + a[k]), rad * std::sin(a0 + a[k])});
+    }
+    if (mode == 2 && c.poly.size() > 3) {  // relabel, the hubs land anywhere in the order
+      const size_t shift = (size_t)r.integer(0, (int)c.poly.size() - 1);
+      std::rotate(c.poly.begin(), c.poly.begin() + long(shift), c.poly.end());
+    }
+    c.params = "loops=" + std::to_string(loops) + " hubs=" + std::to_string(hubs);
+  }
+  if (c.poly.size() < 3 || !well_conditioned(c.poly)) return std::nullopt;
+  // Keep every triangle angle and every vertex-to-edge gap away from degeneracy, so the float R are exact.
+  const size_t n = c.poly.size();
+  for (size_t i = 0; i < n; ++i)
+    for (size_t j = i + 1; j < n; ++j)
+      for (size_t k = j + 1; k < n; ++k) {
+        const Pt &A = c.poly[i], &B = c.poly[j], &C = c.poly[k];
+        const double area2 = std::fabs((B.x - A.x) * (C.y - A.y) - (B.y - A.y) * (C.x - A.x));
+        if (area2 < 1e-6) return std::nullopt;
+      }
+  const OracleResult o = exhaustive_triangulations(c.poly);
+  if (!o.complete) return std::nullopt;
+  for (const auto& [R, t] : o.by_R) {
+    if (!check_triangulation(c.poly, t, R).ok()) return std::nullopt;
+    c.feasible_R.push_back(R);
+  }
+  c.turning = turning_number(c.poly);
+  if (c.feasible_R.empty()) {
+    c.expect = Expect::not_self_overlapping;
+  } else {
+    c.certificate = o.by_R.begin()->second;
+    c.certificate_R = o.by_R.begin()->first;
+    c.expect = c.turning == 1 ? Expect::simple_or_self_overlapping : Expect::weakly_self_overlapping;
+  }
+  c.params += " realizable_R=" + std::to_string(c.feasible_R.size());
+  return c;
+}
+
 // ---------------------------------------------------------------------------------------------------
 // Family registry.
 
 enum class Family {
   exp_strip, power_map, spiral_overlap, spiral_thin, bent_strip,           // 1a
-  star, deformed_circle, comb, zigzag,                                      // 1b (+ reversed)
-  tree, double_loop,                                                        // 1c
-  figure_eight, negative_trochoid, curls, grid_reversed, tree_reversed,     // 1d
+  star, deformed_circle, comb, zigzag, dart,                                // 1b (+ reversed)
+  tree, double_loop, lattice_tree, deep_hub_tree,                           // 1c
+  figure_eight, negative_trochoid, curls, grid_reversed, tree_reversed, flower,  // 1d
+  small,                                                                    // exhaustive oracle
 };
 
 inline const char* family_name(Family f) {
@@ -920,8 +1082,13 @@ inline const char* family_name(Family f) {
     case Family::deformed_circle: return "deformed_circle";
     case Family::comb: return "comb";
     case Family::zigzag: return "zigzag";
+    case Family::dart: return "dart";
+    case Family::flower: return "flower";
+    case Family::small: return "small";
     case Family::tree: return "tree";
     case Family::double_loop: return "double_loop";
+    case Family::lattice_tree: return "lattice_tree";
+    case Family::deep_hub_tree: return "deep_hub_tree";
     case Family::figure_eight: return "figure_eight";
     case Family::negative_trochoid: return "negative_trochoid";
     case Family::curls: return "curls";
@@ -942,8 +1109,24 @@ inline std::optional<GenCase> generate_one(Family f, std::uint64_t seed) {
     case Family::deformed_circle: return gen_deformed_circle(seed);
     case Family::comb: return gen_comb(seed);
     case Family::zigzag: return gen_zigzag(seed);
+    case Family::dart: return gen_dart(seed);
+    case Family::flower: return gen_flower(seed);
+    case Family::small: return gen_small(seed);
     case Family::tree: return gen_tree(seed);
     case Family::double_loop: return gen_double_loop(seed);
+    case Family::lattice_tree: {
+      TreeOptions o;
+      o.lattice = true;
+      o.family = "lattice_tree";
+      return gen_tree(seed, o);
+    }
+    case Family::deep_hub_tree: {
+      TreeOptions o;
+      o.deep_min_turns = 3;
+      o.deep_max_turns = kGenMaxRotationIndex;
+      o.family = "deep_hub_tree";
+      return gen_tree(seed, o);
+    }
     case Family::figure_eight: return gen_figure_eight(seed);
     case Family::negative_trochoid: return gen_negative_trochoid(seed);
     case Family::curls: return gen_curls(seed);
@@ -978,8 +1161,13 @@ inline int default_count(Family f) {
     case Family::deformed_circle: return 50;
     case Family::comb: return 30;
     case Family::zigzag: return 30;
+    case Family::dart: return 60;
+    case Family::flower: return 40;
+    case Family::small: return 400;
     case Family::tree: return 250;
     case Family::double_loop: return 40;
+    case Family::lattice_tree: return 120;
+    case Family::deep_hub_tree: return 30;
     case Family::figure_eight: return 50;
     case Family::negative_trochoid: return 40;
     case Family::curls: return 100;
@@ -990,14 +1178,17 @@ inline int default_count(Family f) {
 }
 
 inline bool is_simple_family(Family f) {
-  return f == Family::star || f == Family::deformed_circle || f == Family::comb || f == Family::zigzag;
+  return f == Family::star || f == Family::deformed_circle || f == Family::comb || f == Family::zigzag ||
+         f == Family::dart;
 }
 
 inline const std::vector<Family>& all_families() {
   static const std::vector<Family> all = {
       Family::exp_strip, Family::power_map, Family::spiral_overlap, Family::spiral_thin, Family::bent_strip,
-      Family::star, Family::deformed_circle, Family::comb, Family::zigzag, Family::tree, Family::double_loop,
-      Family::figure_eight, Family::negative_trochoid, Family::curls, Family::grid_reversed, Family::tree_reversed};
+      Family::star, Family::deformed_circle, Family::comb, Family::zigzag, Family::dart, Family::tree, Family::double_loop,
+      Family::lattice_tree, Family::deep_hub_tree,
+      Family::figure_eight, Family::negative_trochoid, Family::curls, Family::grid_reversed, Family::tree_reversed,
+      Family::flower, Family::small};
   return all;
 }
 

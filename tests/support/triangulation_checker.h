@@ -360,4 +360,57 @@ inline CheckReport check_classification(const Poly& p, CheckVerdict verdict, int
   return rep;
 }
 
+// ---------------------------------------------------------------------------------------------------
+// Exhaustive oracle for small polygons. By Proposition 1 a polygon is weakly self-overlapping iff it has a
+// triangulation by strictly positive triangles with no interior vertex, and such a triangulation is
+// combinatorially a triangulation of the n-gon (every diagonal set of the convex n-gon). This enumerates
+// all of them whose triangles are all positive (exact predicate; the product explodes as Catalan(n-2),
+// so n <= 12) and collects every rotation-index vector they realize, with one certificate each.
+struct OracleResult {
+  bool complete = false;                           // false: too big, nothing enumerated
+  long long positive_triangulations = 0;
+  std::map<std::vector<int>, std::vector<Tri>> by_R;  // realized R vectors -> a certificate
+};
+
+inline OracleResult exhaustive_triangulations(const Poly& p, int max_n = 12, long long max_count = 200000) {
+  OracleResult out;
+  const int n = (int)p.size();
+  if (n < 3 || n > max_n) return out;
+  // sub[i][j]: every positive triangulation of the chain i..j closed by the chord (j, i), i < j.
+  std::vector<std::vector<std::vector<std::vector<Tri>>>> sub(n, std::vector<std::vector<std::vector<Tri>>>(n));
+  long long work = 0;
+  for (int d = 1; d < n; ++d)
+    for (int i = 0; i + d < n; ++i) {
+      const int j = i + d;
+      auto& here = sub[i][j];
+      if (d == 1) {
+        here.push_back({});
+        continue;
+      }
+      for (int k = i + 1; k < j; ++k) {
+        if (exact::orient(p[i], p[k], p[j]) <= 0) continue;
+        for (const auto& a : sub[i][k])
+          for (const auto& b : sub[k][j]) {
+            if (++work > max_count * 20) return out;
+            std::vector<Tri> t = a;
+            t.insert(t.end(), b.begin(), b.end());
+            t.push_back({i, k, j});
+            here.push_back(std::move(t));
+          }
+      }
+    }
+  const std::vector<long double> alpha = interior_angles(p);
+  for (const auto& t : sub[0][n - 1]) {
+    if (++out.positive_triangulations > max_count) return OracleResult{};
+    std::vector<long double> theta(n, 0);
+    for (const Tri& tr : t)
+      for (int k = 0; k < 3; ++k) theta[tr[k]] += corner_angle(p[tr[k]], p[tr[(k + 1) % 3]], p[tr[(k + 2) % 3]]);
+    std::vector<int> R(n);
+    for (int v = 0; v < n; ++v) R[v] = (int)std::llround((theta[v] - alpha[v]) / kTwoPiL);
+    out.by_R.emplace(R, t);
+  }
+  out.complete = true;
+  return out;
+}
+
 }  // namespace lipmap::testgen
