@@ -17,8 +17,9 @@ struct VerifyReport {
   double ms = 0;
 };
 
-// loop and polygon: boundary vertex loop[k] must have uv == polygon.vertices[k] bit for bit.
+// loop and polygon: boundary vertex loop[k] must have uv == polygon.vertices[k] bit for bit, and its angle
+// in the map must be the polygon's interior angle plus 2 pi rotation[k] (the classification's R_k).
 VerifyReport verify_map(const DiskMesh& source, const std::vector<int>& loop, const BoundaryPolygon& polygon,
-                        const RefinedMap& map);
+                        const std::vector<int>& rotation, const RefinedMap& map);
 
 }  // namespace lipmap

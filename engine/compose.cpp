@@ -1,0 +1,59 @@
+// Stage "compose" (paper 4): f = h_t^-1 o h_s at the source vertices.
+#include "engine/compose.h"
+
+#include <chrono>
+#include <deque>
+
+#include "engine/detail/disk_walk.h"
+
+namespace lipmap {
+
+Composition compose(const DiskMesh& source, const std::vector<int>& loop, const std::vector<Point2>& source_disk,
+                    const TargetMesh& target, const std::vector<Point2>& target_disk, const CancelToken* cancel) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const int n = static_cast<int>(source.vertices.size());
+  const detail::DiskWalk walk(target_disk, target.vertices, target.faces);
+
+  Composition out;
+  out.uv.assign(n, Point2{});
+  out.target_face.assign(n, -1);
+  std::vector<int> boundary_index(n, -1);
+  for (int k = 0; k < static_cast<int>(loop.size()); ++k) boundary_index[loop[k]] = k;
+
+  // Breadth first from the boundary, so every walk starts in the face where a neighbour was found.
+  std::vector<int> start_face(n, -1);
+  std::vector<char> seen(n, 0);
+  std::deque<int> queue;
+  for (int k = 0; k < static_cast<int>(loop.size()); ++k) {
+    const int v = loop[k];
+    out.uv[v] = target.vertices[k];  // h_s and h_t pin boundary vertex k to the same disk point
+    start_face[v] = walk.face_at_vertex(k);
+    seen[v] = 1;
+    queue.push_back(v);
+  }
+  const TriMesh& mesh = source.mesh;
+  int visited = 0;
+  while (!queue.empty()) {
+    const int v = queue.front();
+    queue.pop_front();
+    if (++visited % 4096 == 0) check_cancel(cancel);
+    if (boundary_index[v] < 0) {
+      const Point2& q = source_disk[v];
+      const int f = walk.locate(detail::Pt(q.x, q.y), start_face[v], &out.walk_steps);
+      out.target_face[v] = f;
+      out.uv[v] = walk.target_point(detail::Pt(q.x, q.y), f);
+      start_face[v] = f;
+    }
+    for (auto vv : mesh.vv_range(mesh.vertex_handle(v))) {
+      const int w = vv.idx();
+      if (seen[w]) continue;
+      seen[w] = 1;
+      start_face[w] = start_face[v];
+      queue.push_back(w);
+    }
+  }
+  out.ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  return out;
+}
+
+}  // namespace lipmap

@@ -1,0 +1,453 @@
+// Stage "refine" (paper 4, "Source mesh refinement", Fig. 10-12).
+//
+// A source face with inserted points on its edges is a "refined polygon"; its image polygon runs through
+// f at the corners and at the inserted points. A polygon is usable when its image has a triangulation with
+// positive triangles whose angles are the polygon's own interior angles (self-overlapping, all R_i = 0) and
+// in which no triangle has all three corners on one original edge (it would be flat in 3D). The same
+// test drives the refinement loop, the simplification rounds and the final compatible triangulation, so
+// every decision is made on the doubles that are returned, with exact predicates.
+#include "engine/refine.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <optional>
+#include <unordered_map>
+
+#include "engine/detail/disk_walk.h"
+#include "engine/detail/plane_angles.h"
+#include "engine/detail/shor_van_wyk.h"
+
+namespace lipmap {
+namespace {
+
+using detail::Pt;
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point t0) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+}
+
+struct EdgePoint {
+  double t = 0;  // from the edge's lower vertex index towards the higher one
+  Point2 uv;
+  bool removed = false;
+};
+
+// A vertex of a refined polygon: an original vertex, or point `index` of edge `edge`.
+struct PolyVertex {
+  int vertex = -1, edge = -1, index = -1;
+  Point2 uv;
+  unsigned edges = 0;  // bit i: lies on the face's edge i (corner i to corner i + 1)
+  bool same(const PolyVertex& o) const { return vertex == o.vertex && edge == o.edge && index == o.index; }
+};
+
+class Refiner {
+public:
+  Refiner(const DiskMesh& source, const std::vector<int>& loop, const std::vector<Point2>& source_disk,
+          const TargetMesh& target, const std::vector<Point2>& target_disk, const Composition& composition,
+          const CancelToken* cancel)
+      : source_(source), faces_(source.faces), source_disk_(source_disk), uv_(composition.uv),
+        walk_(target_disk, target.vertices, target.faces), cancel_(cancel) {
+    const int nv = static_cast<int>(source.vertices.size());
+    start_face_ = composition.target_face;
+    for (int k = 0; k < static_cast<int>(loop.size()); ++k) start_face_[loop[k]] = walk_.face_at_vertex(k);
+    build_edges(nv);
+  }
+
+  RefinedMap run(bool refine) {
+    RefinedMap out;
+    const std::vector<int> bad = initially_bad_faces(out.flipped_before_refinement);
+    if (!refine) {
+      out.vertices = source_.vertices;
+      out.faces = faces_;
+      out.uv = uv_;
+      return out;
+    }
+    auto t0 = Clock::now();
+    refine_from(bad);
+    out.refine_ms = ms_since(t0);
+    for (const auto& pts : points_) out.points_before_simplification += static_cast<int>(pts.size());
+
+    t0 = Clock::now();
+    out.simplification_rounds = simplify();
+    out.simplify_ms = ms_since(t0);
+
+    t0 = Clock::now();
+    triangulate_all();
+    assemble(out);
+    out.triangulate_ms = ms_since(t0);
+    for (int e = 0; e < static_cast<int>(points_.size()); ++e)
+      if (edge_done_[e] && !points_[e].empty()) out.refined_faces += edge_faces_[e][1] >= 0 ? 2 : 1;
+    return out;
+  }
+
+private:
+  // ---- topology ----
+  void build_edges(int nv) {
+    std::unordered_map<std::uint64_t, int> index;
+    index.reserve(faces_.size() * 2);
+    face_edges_.resize(faces_.size());
+    for (int f = 0; f < static_cast<int>(faces_.size()); ++f) {
+      for (int i = 0; i < 3; ++i) {
+        const int a = std::min(faces_[f][i], faces_[f][(i + 1) % 3]);
+        const int b = std::max(faces_[f][i], faces_[f][(i + 1) % 3]);
+        const std::uint64_t key = static_cast<std::uint64_t>(a) * static_cast<std::uint64_t>(nv) + b;
+        auto [it, fresh] = index.emplace(key, static_cast<int>(edge_vertices_.size()));
+        if (fresh) {
+          edge_vertices_.push_back({a, b});
+          edge_faces_.push_back({f, -1});
+        } else {
+          edge_faces_[it->second][1] = f;
+        }
+        face_edges_[f][i] = it->second;
+      }
+    }
+    points_.resize(edge_vertices_.size());
+    point_base_.assign(edge_vertices_.size(), 0);
+    edge_done_.assign(edge_vertices_.size(), 0);
+  }
+
+  int across(int f, int i) const {  // the face on the other side of edge i of f, or -1
+    const auto& ef = edge_faces_[face_edges_[f][i]];
+    return ef[0] == f ? ef[1] : ef[0];
+  }
+
+  // ---- the image polygon of a refined face ----
+  std::vector<PolyVertex> polygon(int f) const {
+    std::vector<PolyVertex> poly;
+    for (int i = 0; i < 3; ++i) {
+      const int c = faces_[f][i];
+      poly.push_back({c, -1, -1, uv_[c], (1u << i) | (1u << ((i + 2) % 3))});
+      const int e = face_edges_[f][i];
+      const std::vector<EdgePoint>& pts = points_[e];
+      const bool ascending = edge_vertices_[e][0] == c;
+      for (std::size_t k = 0; k < pts.size(); ++k) {
+        const int idx = static_cast<int>(ascending ? k : pts.size() - 1 - k);
+        if (!pts[idx].removed) poly.push_back({-1, e, idx, pts[idx].uv, 1u << i});
+      }
+    }
+    return poly;
+  }
+
+  static std::optional<std::vector<Triangle>> triangulate(const std::vector<PolyVertex>& poly) {
+    std::vector<Pt> pts;
+    pts.reserve(poly.size());
+    for (const PolyVertex& v : poly) pts.emplace_back(v.uv.x, v.uv.y);
+    const detail::AllowedTriangle not_flat = [&](int i, int k, int j) {
+      return (poly[i].edges & poly[k].edges & poly[j].edges) == 0;
+    };
+    return detail::triangulate_self_overlapping(pts, &not_flat);
+  }
+
+  bool usable(int f) const { return triangulate(polygon(f)).has_value(); }
+
+  // ---- stage 1: which faces need refinement ----
+  // Faces whose image is not strictly positive, and the faces around interior vertices whose image
+  // one-ring does not wind exactly once (positive triangles can still wrap twice, paper Fig. 1a).
+  std::vector<int> initially_bad_faces(int& flipped) {
+    const int nf = static_cast<int>(faces_.size());
+    std::vector<char> bad(nf, 0);
+    flipped = 0;
+    for (int f = 0; f < nf; ++f) {
+      const Triangle& t = faces_[f];
+      if (detail::orient(pt(uv_[t[0]]), pt(uv_[t[1]]), pt(uv_[t[2]])) <= 0) { bad[f] = 1; ++flipped; }
+    }
+    const TriMesh& mesh = source_.mesh;
+    for (auto vh : mesh.vertices()) {
+      if (mesh.is_boundary(vh)) continue;
+      bool all_positive = true;
+      for (auto fh : mesh.vf_range(vh)) all_positive = all_positive && !bad[fh.idx()];
+      if (all_positive && winding(vh.idx()) != 1)
+        for (auto fh : mesh.vf_range(vh)) bad[fh.idx()] = 1;
+    }
+    std::vector<int> out;
+    for (int f = 0; f < nf; ++f)
+      if (bad[f]) out.push_back(f);
+    return out;
+  }
+
+  // Full turns of the image one-ring around interior vertex v, summing its faces' corner sweeps (App. B).
+  int winding(int v) const {
+    std::vector<std::pair<int, int>> fan;  // (next, prev) of v in each face: the corner sweeps next -> prev
+    for (auto fh : source_.mesh.vf_range(source_.mesh.vertex_handle(v))) {
+      const Triangle& t = faces_[fh.idx()];
+      const int c = t[0] == v ? 0 : t[1] == v ? 1 : 2;
+      fan.push_back({t[(c + 1) % 3], t[(c + 2) % 3]});
+    }
+    const Pt center = pt(uv_[v]), start = pt(uv_[fan[0].first]);
+    int at = fan[0].first, turns = 0;
+    for (std::size_t step = 0; step < fan.size(); ++step) {
+      auto it = std::find_if(fan.begin(), fan.end(), [&](const auto& s) { return s.first == at; });
+      if (it == fan.end()) return 0;
+      turns += detail::extra_turn(center, start, pt(uv_[at]), pt(uv_[it->second]));
+      at = it->second;
+    }
+    return turns;
+  }
+
+  // ---- stage 2: the refinement loop of paper 4 ----
+  void insert_crossings(int e) {
+    edge_done_[e] = 1;
+    if (edge_faces_[e][1] < 0) return;  // boundary edges coincide with h_t(M_t)'s boundary: nothing crosses
+    const int a = edge_vertices_[e][0], b = edge_vertices_[e][1];
+    point_base_[e] = point_count_;
+    for (const detail::Crossing& c : walk_.crossings(pt(source_disk_[a]), pt(source_disk_[b]), start_face_[a]))
+      points_[e].push_back({c.t, c.uv, false});
+    point_count_ += static_cast<long long>(points_[e].size());
+  }
+
+  void refine_from(const std::vector<int>& bad) {
+    std::vector<int> stack(bad.rbegin(), bad.rend());
+    std::vector<char> queued(faces_.size(), 0);
+    for (int f : bad) queued[f] = 1;
+    int steps = 0;
+    while (!stack.empty()) {
+      if (++steps % 256 == 0) check_cancel(cancel_);
+      const int f = stack.back();
+      stack.pop_back();
+      queued[f] = 0;
+      for (int i = 0; i < 3; ++i)
+        if (!edge_done_[face_edges_[f][i]]) insert_crossings(face_edges_[f][i]);
+      for (int i = 0; i < 3; ++i) {
+        const int g = across(f, i);
+        if (g >= 0 && !queued[g] && !fully_refined(g) && !usable(g)) {
+          queued[g] = 1;
+          stack.push_back(g);
+        }
+      }
+    }
+  }
+
+  bool fully_refined(int f) const {
+    for (int i = 0; i < 3; ++i) {
+      const int e = face_edges_[f][i];
+      if (!edge_done_[e]) return false;
+      for (const EdgePoint& p : points_[e])
+        if (p.removed) return false;
+    }
+    return true;
+  }
+
+  // ---- stage 3: simplification rounds of Fig. 11 ----
+  // A point that stayed after a round can only become removable when one of its two polygons changed, so
+  // later rounds look only at the edges of faces that lost a point in the round before.
+  int simplify() {
+    const int ne = static_cast<int>(points_.size());
+    std::vector<char> look(ne, 1), next(ne, 0);
+    int rounds = 0;
+    for (bool changed = true; changed;) {
+      changed = false;
+      ++rounds;
+      check_cancel(cancel_);
+      std::fill(next.begin(), next.end(), 0);
+      for (int e = 0; e < ne; ++e) {
+        if (!look[e]) continue;
+        bool edge_changed = remove_all(e);
+        for (int i = 0; !edge_changed && i < static_cast<int>(points_[e].size()); ++i) {
+          if (points_[e][i].removed || !removable(e, i)) continue;
+          points_[e][i].removed = true;
+          edge_changed = true;
+        }
+        for (int i = 0; i < static_cast<int>(points_[e].size()); ++i) {
+          if (points_[e][i].removed || !removable(e, i)) continue;
+          points_[e][i].removed = true;
+        }
+        if (!edge_changed) continue;
+        changed = true;
+        for (int f : edge_faces_[e])
+          if (f >= 0)
+            for (int k = 0; k < 3; ++k) next[face_edges_[f][k]] = 1;
+      }
+      look.swap(next);
+    }
+    return rounds;
+  }
+
+  // Often an edge needs none of its points: one test for all of them before the point-by-point rounds.
+  // The wedges at the edge's two ends are checked as for a single point, the first and last remaining
+  // points standing for the rays that disappear.
+  bool remove_all(int e) {
+    std::vector<int> kept;
+    for (int i = 0; i < static_cast<int>(points_[e].size()); ++i)
+      if (!points_[e][i].removed) kept.push_back(i);
+    if (kept.size() < 2) return false;
+    const int f1 = edge_faces_[e][0], f2 = edge_faces_[e][1];
+    const std::vector<PolyVertex> before1 = polygon(f1), before2 = polygon(f2);
+    const auto [a, b] = edge_vertices_[e];
+    const PolyVertex va{a, -1, -1, uv_[a], 0}, vb{b, -1, -1, uv_[b], 0};
+    const PolyVertex first{-1, e, kept.front(), points_[e][kept.front()].uv, 0};
+    const PolyVertex last{-1, e, kept.back(), points_[e][kept.back()].uv, 0};
+    const bool wedges = wedge_kept(before1, before2, va, first, vb) && wedge_kept(before1, before2, vb, last, va);
+    if (!wedges) return false;
+    for (int i : kept) points_[e][i].removed = true;
+    if (usable(f1) && usable(f2)) return true;
+    for (int i : kept) points_[e][i].removed = false;
+    return false;
+  }
+
+  // Point i of edge e can go when both polygons stay usable and the angle sums at its two neighbours along
+  // the edge are unchanged (the neighbouring wedges still add up to the same number of full turns).
+  bool removable(int e, int i) {
+    const int f1 = edge_faces_[e][0], f2 = edge_faces_[e][1];
+    const std::vector<PolyVertex> before1 = polygon(f1), before2 = polygon(f2);
+    points_[e][i].removed = true;
+    const bool ok = usable(f1) && usable(f2) && wedges_kept(before1, before2, e, i);
+    points_[e][i].removed = false;
+    return ok;
+  }
+
+  static int find(const std::vector<PolyVertex>& poly, const PolyVertex& v) {
+    for (int k = 0; k < static_cast<int>(poly.size()); ++k)
+      if (poly[k].same(v)) return k;
+    return -1;
+  }
+
+  bool wedges_kept(const std::vector<PolyVertex>& p1, const std::vector<PolyVertex>& p2, int e, int i) const {
+    const PolyVertex x{-1, e, i, points_[e][i].uv, 0};
+    const int k1 = find(p1, x);
+    if (k1 < 0) return false;
+    const int n1 = static_cast<int>(p1.size());
+    const PolyVertex& before = p1[(k1 + n1 - 1) % n1];
+    const PolyVertex& after = p1[(k1 + 1) % n1];
+    return wedge_kept(p1, p2, before, x, after) && wedge_kept(p1, p2, after, x, before);
+  }
+
+  // At y, the ray towards x becomes the ray towards z. In the polygon whose next vertex after y is x the
+  // wedge at y starts at x; in the other it ends at x. Their union must keep its number of full turns.
+  static bool wedge_kept(const std::vector<PolyVertex>& p1, const std::vector<PolyVertex>& p2,
+                         const PolyVertex& y, const PolyVertex& x, const PolyVertex& z) {
+    const PolyVertex* wedge_end = nullptr;    // in the polygon where x follows y: the wedge x -> prev(y)
+    const PolyVertex* wedge_start = nullptr;  // in the polygon where x precedes y: the wedge next(y) -> x
+    for (const auto* poly : {&p1, &p2}) {
+      const int k = find(*poly, y);
+      if (k < 0) return false;
+      const int n = static_cast<int>(poly->size());
+      const PolyVertex& next = (*poly)[(k + 1) % n];
+      const PolyVertex& prev = (*poly)[(k + n - 1) % n];
+      if (next.same(x)) wedge_end = &prev;
+      else if (prev.same(x)) wedge_start = &next;
+    }
+    if (!wedge_end || !wedge_start) return false;
+    const Pt c = pt(y.uv), from = pt(wedge_start->uv), to = pt(wedge_end->uv);
+    return detail::extra_turn(c, from, pt(x.uv), to) == detail::extra_turn(c, from, pt(z.uv), to);
+  }
+
+  // ---- stage 4: compatible triangulation of Fig. 12 ----
+  // A polygon without a valid triangulation gets back every point of its edges (refining edges not yet
+  // refined); its neighbours are then triangulated again. A fully refined polygon that still has none is
+  // a failure, reported by verify's caller as an internal error.
+  void triangulate_all() {
+    const int nf = static_cast<int>(faces_.size());
+    triangles_.assign(nf, {});
+    std::vector<int> work(nf);
+    for (int f = 0; f < nf; ++f) work[f] = nf - 1 - f;
+    std::vector<char> queued(nf, 1);
+    int steps = 0;
+    while (!work.empty()) {
+      if (++steps % 4096 == 0) check_cancel(cancel_);
+      const int f = work.back();
+      work.pop_back();
+      queued[f] = 0;
+      const std::vector<PolyVertex> poly = polygon(f);
+      std::optional<std::vector<Triangle>> tri;
+      if (poly.size() == 3) {
+        if (detail::orient(pt(poly[0].uv), pt(poly[1].uv), pt(poly[2].uv)) > 0) tri = std::vector<Triangle>{{0, 1, 2}};
+      } else {
+        tri = triangulate(poly);
+      }
+      if (tri) {
+        triangles_[f].clear();
+        for (const Triangle& t : *tri) triangles_[f].push_back({key(poly[t[0]]), key(poly[t[1]]), key(poly[t[2]])});
+        continue;
+      }
+      if (fully_refined(f)) {
+        failed_faces_.push_back(f);
+        triangles_[f].clear();
+        continue;
+      }
+      for (int i = 0; i < 3; ++i) {
+        const int e = face_edges_[f][i];
+        if (!edge_done_[e]) insert_crossings(e);
+        for (EdgePoint& p : points_[e]) p.removed = false;
+        const int g = across(f, i);
+        if (g >= 0 && !queued[g]) { queued[g] = 1; work.push_back(g); }
+      }
+      queued[f] = 1;
+      work.push_back(f);
+    }
+  }
+
+  // Vertex keys before numbering: original vertex v is v; point k of edge e is -1 - (point_base_[e] + k).
+  // An edge receives its points once, so the keys never change.
+  long long key(const PolyVertex& v) const {
+    if (v.vertex >= 0) return v.vertex;
+    return -1 - (point_base_[v.edge] + v.index);
+  }
+
+  void assemble(RefinedMap& out) {
+    if (!failed_faces_.empty()) {
+      throw InternalError("refine: no compatible triangulation exists for source face " +
+                          std::to_string(failed_faces_.front()) + " even with every intersection point inserted (" +
+                          std::to_string(failed_faces_.size()) + " faces)");
+    }
+    out.vertices = source_.vertices;
+    out.uv = uv_;
+    const long long nv = static_cast<long long>(source_.vertices.size());
+    std::vector<int> id(static_cast<std::size_t>(point_count_), -1);
+    for (int e = 0; e < static_cast<int>(points_.size()); ++e) {
+      const auto [a, b] = edge_vertices_[e];
+      for (int k = 0; k < static_cast<int>(points_[e].size()); ++k) {
+        const EdgePoint& p = points_[e][k];
+        if (p.removed) continue;
+        id[point_base_[e] + k] = static_cast<int>(out.vertices.size());
+        const Point3 &pa = source_.vertices[a], &pb = source_.vertices[b];
+        out.vertices.push_back({pa.x + p.t * (pb.x - pa.x), pa.y + p.t * (pb.y - pa.y), pa.z + p.t * (pb.z - pa.z)});
+        out.uv.push_back(p.uv);
+        out.inserted.push_back({a, b, p.t});
+      }
+    }
+    for (const auto& tris : triangles_) {
+      for (const auto& t : tris) {
+        Triangle face;
+        for (int c = 0; c < 3; ++c) {
+          const long long v = t[c];
+          face[c] = v >= 0 ? static_cast<int>(v) : id[-1 - v];
+          if (face[c] < 0 || (v >= 0 && v >= nv)) throw InternalError("refine: triangle uses a removed point");
+        }
+        out.faces.push_back(face);
+      }
+    }
+  }
+
+  static Pt pt(const Point2& p) { return Pt(p.x, p.y); }
+
+  const DiskMesh& source_;
+  const std::vector<Triangle>& faces_;
+  const std::vector<Point2>& source_disk_;
+  std::vector<Point2> uv_;
+  detail::DiskWalk walk_;
+  const CancelToken* cancel_;
+  std::vector<int> start_face_;
+
+  std::vector<std::array<int, 3>> face_edges_;
+  std::vector<std::array<int, 2>> edge_vertices_, edge_faces_;
+  std::vector<std::vector<EdgePoint>> points_;
+  std::vector<char> edge_done_;
+
+  std::vector<std::vector<std::array<long long, 3>>> triangles_;
+  std::vector<int> failed_faces_;
+  std::vector<long long> point_base_;
+  long long point_count_ = 0;
+};
+
+}  // namespace
+
+RefinedMap refine(const DiskMesh& source, const std::vector<int>& loop, const std::vector<Point2>& source_disk,
+                  const TargetMesh& target, const std::vector<Point2>& target_disk, const Composition& composition,
+                  bool refine, const CancelToken* cancel) {
+  Refiner refiner(source, loop, source_disk, target, target_disk, composition, cancel);
+  return refiner.run(refine);
+}
+
+}  // namespace lipmap
