@@ -279,7 +279,7 @@ TEST(ClassifyGenerators, KnownAnswersHoldForEveryFamily) {
     for (const GenCase& c : generate(f, default_count(f))) {
       ++count;
       SCOPED_TRACE(c.name());
-      ASSERT_TRUE(well_conditioned(c.poly));
+      if (f != Family::small_lattice) ASSERT_TRUE(well_conditioned(c.poly));  // lattice: slits on purpose
       ASSERT_EQ(turning_number(c.poly), c.turning);
       const bool simple = is_simple(c.poly);
       nonsimple += !simple;
@@ -304,7 +304,7 @@ TEST(ClassifyGenerators, KnownAnswersHoldForEveryFamily) {
             EXPECT_FALSE(on);
           }
           // (small) or the exhaustive oracle found no positive triangulation at all.
-          if (f == Family::small) {
+          if (f == Family::small || f == Family::small_lattice) {
             const OracleResult o = exhaustive_triangulations(c.poly);
             EXPECT_TRUE(o.complete && o.by_R.empty());
           } else if (c.turning >= 1 && c.zero_probes.empty()) {
@@ -431,6 +431,8 @@ TEST(ClassifyProperty, DartFalseEarBothOrientations) { run_family(Family::dart, 
 TEST(ClassifyProperty, PinchedFlower) { run_family(Family::flower); }
 // Small polygons against the exhaustive oracle (every positive triangulation enumerated).
 TEST(ClassifyProperty, SmallPolygonsAgainstExhaustiveOracle) { run_family(Family::small); }
+// The same on integer / half-integer grids: collinear and coincident vertices, T-junctions, slits.
+TEST(ClassifyProperty, SmallLatticePolygonsAgainstExhaustiveOracle) { run_family(Family::small_lattice); }
 TEST(ClassifyProperty, TreeOfTriangles) { run_family(Family::tree); }
 TEST(ClassifyProperty, DoubleLoop) { run_family(Family::double_loop); }
 TEST(ClassifyProperty, LatticeTreeCollinearAndPinched) { run_family(Family::lattice_tree); }
@@ -609,6 +611,37 @@ TEST(ClassifyProperty, VerdictInvariantUnderExactTransformations) {
     }
   }
   report("exact transformations", total, failures);
+}
+
+// Far from the origin. Lattice trees (coordinates in (Z/4)^2, |x| < 2^6) translate exactly by
+// (2^20, -2^21): same polygon up to translation, same verdict. Small oracle polygons are translated by
+// (1e6 + 1/3, -3e5) with rounding, and their answer is recomputed by the oracle on the rounded polygon.
+TEST(ClassifyProperty, FarFromTheOrigin) {
+  std::vector<Failure> failures;
+  size_t total = 0;
+  for (const GenCase& c : generate(Family::lattice_tree, 60, 9)) {
+    GenCase v = c;
+    for (Pt& q : v.poly) {
+      ASSERT_LT(std::fabs(q.x) + std::fabs(q.y), 64.0);
+      q = {q.x + 1048576.0, q.y - 2097152.0};
+    }
+    v.family += "_translated";
+    ASSERT_TRUE(check_triangulation(v.poly, v.certificate, v.certificate_R).ok()) << v.name();
+    ++total;
+    if (auto f = run_case(v, std::nullopt, expected_verdict(c))) failures.push_back(*f);
+  }
+  for (const GenCase& c : generate(Family::small, 150, 9)) {
+    GenCase v;
+    v.family = "small_far";
+    v.seed = c.seed;
+    for (const Pt& q : c.poly) v.poly.push_back({q.x + (1e6 + 1.0 / 3), q.y - 3e5});
+    const std::optional<GenCase> w = finish_small_case(v);
+    if (!w) continue;
+    ++total;
+    if (auto f = run_case(*w)) failures.push_back(*f);
+  }
+  EXPECT_GE(total, 150u);
+  report("far from the origin", total, failures);
 }
 
 TEST(ClassifyProperty, MalformedPolygonsThrowInputError) {

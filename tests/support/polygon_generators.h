@@ -16,6 +16,8 @@
 //  1d  not self-overlapping: turning number <= 0 (figure eights, clockwise curves, negative trochoids;
 //      every weakly self-overlapping polygon has T = 1 + sum R_i >= 1), curls with a region of negative
 //      winding number (see gen_curls), and pinched flowers (T = 1, no negative winding; see gen_flower).
+//  small polygons (n <= 10, real or lattice coordinates) answered by an exhaustive oracle that enumerates
+//      every positive triangulation (exhaustive_triangulations in triangulation_checker.h).
 #pragma once
 
 #include <algorithm>
@@ -1000,6 +1002,36 @@ inline std::optional<GenCase> gen_flower(std::uint64_t seed) {
   return c;
 }
 
+// Sets the expected answer of a small polygon from the exhaustive oracle (nullopt if it is too big, or
+// nearly degenerate: every vertex triple must span a non-negligible area, so the float R are exact).
+inline std::optional<GenCase> finish_small_case(GenCase c) {
+  if (c.poly.size() < 3 || !well_conditioned(c.poly)) return std::nullopt;
+  const size_t n = c.poly.size();
+  for (size_t i = 0; i < n; ++i)
+    for (size_t j = i + 1; j < n; ++j)
+      for (size_t k = j + 1; k < n; ++k) {
+        const Pt &A = c.poly[i], &B = c.poly[j], &C = c.poly[k];
+        const double area2 = std::fabs((B.x - A.x) * (C.y - A.y) - (B.y - A.y) * (C.x - A.x));
+        if (area2 < 1e-6) return std::nullopt;
+      }
+  const OracleResult o = exhaustive_triangulations(c.poly);
+  if (!o.complete) return std::nullopt;
+  for (const auto& [R, t] : o.by_R) {
+    if (!check_triangulation(c.poly, t, R).ok()) return std::nullopt;
+    c.feasible_R.push_back(R);
+  }
+  c.turning = turning_number(c.poly);
+  if (c.feasible_R.empty()) {
+    c.expect = Expect::not_self_overlapping;
+  } else {
+    c.certificate = o.by_R.begin()->second;
+    c.certificate_R = o.by_R.begin()->first;
+    c.expect = c.turning == 1 ? Expect::simple_or_self_overlapping : Expect::weakly_self_overlapping;
+  }
+  c.params += " realizable_R=" + std::to_string(c.feasible_R.size());
+  return c;
+}
+
 // Small polygons (n <= max_n <= 12) whose answer comes from the exhaustive oracle (exhaustive_triangulations):
 // random points in a square, and "winding" polygons (points at increasing angles over 1 to 3 turns around
 // the origin with random radii, plus 0 to 2 points near the origin), which are often weakly self-overlapping
@@ -1032,23 +1064,51 @@ inline std::optional<GenCase> gen_small(std::uint64_t seed, int max_n = 10) {
     }
     c.params = "loops=" + std::to_string(loops) + " hubs=" + std::to_string(hubs);
   }
-  if (c.poly.size() < 3 || !well_conditioned(c.poly)) return std::nullopt;
-  // Keep every triangle angle and every vertex-to-edge gap away from degeneracy, so the float R are exact.
+  return finish_small_case(std::move(c));
+}
+
+// Small lattice polygons: integer coordinates in [0, 4]^2 (random points), or winding polygons snapped to
+// the half-integer grid. Collinear vertices, distinct vertices at one point, vertices on other edges and
+// slits (spikes, interior angle 2 pi) all occur; the oracle stays exact (strict positivity by the exact
+// predicate, and on such a grid no angle is close to 0 or 2 pi without being exactly that).
+inline std::optional<GenCase> gen_small_lattice(std::uint64_t seed, int max_n = 10) {
+  Rng r(seed);
+  GenCase c;
+  c.family = "small_lattice";
+  c.seed = seed;
+  if (r.chance(0.5)) {
+    const int n = r.integer(4, max_n - 1);
+    for (int k = 0; k < n; ++k) c.poly.push_back({double(r.integer(0, 4)), double(r.integer(0, 4))});
+    c.params = "lattice points";
+  } else {
+    const int hubs = r.integer(0, 2), loops = std::min(r.integer(1, 3), (max_n - hubs) / 3);
+    const int m = r.integer(3 * loops, max_n - hubs);
+    const double a0 = r.uniform(0, kTwoPi), total = kTwoPi * loops - r.uniform(0.3, 1.5);
+    for (int h = 0; h < hubs; ++h) c.poly.push_back({0.5 * r.integer(-1, 1), 0.5 * r.integer(-1, 1)});
+    std::vector<double> a(m);
+    for (double& x : a) x = r.uniform(0, total);
+    std::sort(a.begin(), a.end());
+    for (int k = 0; k < m; ++k) {
+      const double rad = r.uniform(1.0, 3.0);
+      c.poly.push_back({0.5 * std::round(2 * rad * std::cos(a0 + a[k])), 0.5 * std::round(2 * rad * std::sin(a0 + a[k]))});
+    }
+    const size_t shift = (size_t)r.integer(0, (int)c.poly.size() - 1);
+    std::rotate(c.poly.begin(), c.poly.begin() + long(shift), c.poly.end());
+    c.params = "snapped loops=" + std::to_string(loops) + " hubs=" + std::to_string(hubs);
+  }
   const size_t n = c.poly.size();
+  if (n < 3) return std::nullopt;
   for (size_t i = 0; i < n; ++i)
-    for (size_t j = i + 1; j < n; ++j)
-      for (size_t k = j + 1; k < n; ++k) {
-        const Pt &A = c.poly[i], &B = c.poly[j], &C = c.poly[k];
-        const double area2 = std::fabs((B.x - A.x) * (C.y - A.y) - (B.y - A.y) * (C.x - A.x));
-        if (area2 < 1e-6) return std::nullopt;
-      }
+    if (c.poly[i] == c.poly[(i + 1) % n]) return std::nullopt;
+  long double raw = 0;
+  c.turning = turning_number(c.poly, &raw);
+  if (std::fabs(raw - c.turning) > 1e-9L) return std::nullopt;
   const OracleResult o = exhaustive_triangulations(c.poly);
   if (!o.complete) return std::nullopt;
   for (const auto& [R, t] : o.by_R) {
     if (!check_triangulation(c.poly, t, R).ok()) return std::nullopt;
     c.feasible_R.push_back(R);
   }
-  c.turning = turning_number(c.poly);
   if (c.feasible_R.empty()) {
     c.expect = Expect::not_self_overlapping;
   } else {
@@ -1068,7 +1128,7 @@ enum class Family {
   star, deformed_circle, comb, zigzag, dart,                                // 1b (+ reversed)
   tree, double_loop, lattice_tree, deep_hub_tree,                           // 1c
   figure_eight, negative_trochoid, curls, grid_reversed, tree_reversed, flower,  // 1d
-  small,                                                                    // exhaustive oracle
+  small, small_lattice,                                                     // exhaustive oracle
 };
 
 inline const char* family_name(Family f) {
@@ -1085,6 +1145,7 @@ inline const char* family_name(Family f) {
     case Family::dart: return "dart";
     case Family::flower: return "flower";
     case Family::small: return "small";
+    case Family::small_lattice: return "small_lattice";
     case Family::tree: return "tree";
     case Family::double_loop: return "double_loop";
     case Family::lattice_tree: return "lattice_tree";
@@ -1112,6 +1173,7 @@ inline std::optional<GenCase> generate_one(Family f, std::uint64_t seed) {
     case Family::dart: return gen_dart(seed);
     case Family::flower: return gen_flower(seed);
     case Family::small: return gen_small(seed);
+    case Family::small_lattice: return gen_small_lattice(seed);
     case Family::tree: return gen_tree(seed);
     case Family::double_loop: return gen_double_loop(seed);
     case Family::lattice_tree: {
@@ -1164,6 +1226,7 @@ inline int default_count(Family f) {
     case Family::dart: return 60;
     case Family::flower: return 40;
     case Family::small: return 400;
+    case Family::small_lattice: return 400;
     case Family::tree: return 250;
     case Family::double_loop: return 40;
     case Family::lattice_tree: return 120;
@@ -1188,7 +1251,7 @@ inline const std::vector<Family>& all_families() {
       Family::star, Family::deformed_circle, Family::comb, Family::zigzag, Family::dart, Family::tree, Family::double_loop,
       Family::lattice_tree, Family::deep_hub_tree,
       Family::figure_eight, Family::negative_trochoid, Family::curls, Family::grid_reversed, Family::tree_reversed,
-      Family::flower, Family::small};
+      Family::flower, Family::small, Family::small_lattice};
   return all;
 }
 
