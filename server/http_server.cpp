@@ -190,7 +190,7 @@ struct Answer {
   int status = 200;
   std::string content_type = "application/json";
   std::string body;
-  std::shared_ptr<const std::string> shared_body;  // large bodies (job results) are streamed, not copied
+  std::shared_ptr<const std::string> shared_body;  // large bodies (results) are shared until written
   std::optional<ordered_json> problem;
   std::vector<std::pair<std::string, std::string>> headers;
 };
@@ -428,12 +428,9 @@ struct HttpServer::Impl {
       res.set_content(a.problem->dump(-1, ' ', false, ordered_json::error_handler_t::replace),
                       "application/problem+json");
     } else if (a.shared_body) {
-      auto body = a.shared_body;
-      res.set_content_provider(body->size(), a.content_type,
-                               [body](size_t offset, size_t length, httplib::DataSink& sink) {
-                                 const size_t n = std::min(length, body->size() - offset);
-                                 return sink.write(body->data() + offset, n);
-                               });
+      // Copied, not streamed: cpp-httplib stops content providers as soon as the server stops, which would
+      // cut off the answers that SIGTERM lets finish.
+      res.set_content(*a.shared_body, a.content_type);
     } else {
       res.set_content(a.body, a.content_type);
     }
@@ -696,8 +693,10 @@ struct HttpServer::Impl {
     const TestHooks hooks = hooks_of(req);
     std::shared_ptr<Job> job = store.create();
     job->token().set_deadline(deadline_from_arrival());
+    std::uint64_t ticket = 0;
     const WorkerPool::Submit submitted =
-        pool.submit([this, job, request, hooks] { run_job(job, *request, hooks); });
+        pool.submit([this, job, request, hooks] { run_job(job, *request, hooks); }, &ticket);
+    job->set_ticket(ticket);
     if (submitted != WorkerPool::Submit::accepted) {
       store.discard(job->id());
       return submit_refused(submitted);
@@ -750,7 +749,9 @@ struct HttpServer::Impl {
     }
     job->request_cancel(CancelReason::client);
     if (state == JobState::queued && job->state() == JobState::queued) {
-      // Not started: it is over now (the worker that picks it up finds it final and skips it).
+      // Not started: it is over now, and its place in the queue is free (if a worker took it meanwhile,
+      // it finds the job final and skips it).
+      pool.remove(job->ticket());
       job->fail(JobState::cancelled,
                 problem(409, "cancelled", "the job was cancelled at the client's request before it started"));
       if (job->state() == JobState::cancelled) finish_job(job);
@@ -799,12 +800,25 @@ struct HttpServer::Impl {
     const JobSnapshot s = job->snapshot();
     if (s.state != JobState::succeeded) return not_finished(*job, s);
 #if LIPMAP_HAVE_SVG_PREVIEW
-    std::shared_ptr<const ParametrizeResult> result = job->result();
-    if (result) {
+    if (std::shared_ptr<const std::string> cached = job->preview()) {
       Answer a;
       a.content_type = "image/svg+xml";
-      a.body = LIPMAP_SVG_PREVIEW(*result);
+      a.shared_body = std::move(cached);
       return a;
+    }
+    std::shared_ptr<const ParametrizeResult> result = job->result();
+    if (result) {
+      // Rendering is engine-side work: it runs on the pool like everything else, once per job.
+      return run_sync(WorkKind::parametrize, [job, result](const CancelToken& token) {
+        token.check();
+        auto svg = std::make_shared<const std::string>(
+            preview::render_svg(preview::picture_of(*result, "lipmap job " + job->id())));
+        job->set_preview(svg);
+        Answer a;
+        a.content_type = "image/svg+xml";
+        a.shared_body = std::move(svg);
+        return a;
+      });
     }
 #endif
     return problem_answer(404, "preview_unavailable",
@@ -1019,6 +1033,7 @@ struct HttpServer::Impl {
       const JobState before = job->state();
       job->request_cancel(reason);
       if (before == JobState::queued && job->state() == JobState::queued) {
+        pool.remove(job->ticket());
         job->fail(JobState::cancelled, problem(503, "shutting_down", "the service shut down before the job started"));
         if (job->state() == JobState::cancelled) finish_job(job);
       }
@@ -1108,6 +1123,7 @@ bool HttpServer::shutdown() {
     const JobState before = job->state();
     job->request_cancel(CancelReason::shutdown);
     if (before == JobState::queued && job->state() == JobState::queued) {
+      s.pool.remove(job->ticket());
       job->fail(JobState::cancelled, problem(503, "shutting_down", "the service shut down before the job started"));
       if (job->state() == JobState::cancelled) s.finish_job(job);
     }

@@ -164,6 +164,16 @@ std::shared_ptr<const ParametrizeResult> Job::result() const {
   return result_;
 }
 
+void Job::set_preview(std::shared_ptr<const std::string> svg) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  preview_ = std::move(svg);
+}
+
+std::shared_ptr<const std::string> Job::preview() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return preview_;
+}
+
 // ---- JobStore -------------------------------------------------------------------------------------------
 
 JobStore::JobStore(Limits limits, std::function<void(const std::string&)> on_dropped)

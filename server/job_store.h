@@ -3,7 +3,9 @@
 // job leaves a tombstone so that its id answers 410 Gone rather than 404 (the tombstones are bounded too).
 #pragma once
 
+#include <atomic>
 #include <chrono>
+#include <cstdint>
 #include <cstddef>
 #include <deque>
 #include <functional>
@@ -61,6 +63,10 @@ public:
   // The token the worker passes to the engine. Its deadline is set once, before the job is queued.
   CancelToken& token() { return token_; }
 
+  // The worker pool's ticket of the job's task (to take it out of the queue when it is cancelled).
+  void set_ticket(std::uint64_t ticket) { ticket_.store(ticket); }
+  std::uint64_t ticket() const { return ticket_.load(); }
+
   // Cancels the token; returns false when the job had already finished.
   bool request_cancel(CancelReason reason);
   CancelReason cancel_reason() const;
@@ -76,10 +82,14 @@ public:
   SteadyClock::time_point finished_steady() const;
   std::shared_ptr<const std::string> result_json() const;
   std::shared_ptr<const ParametrizeResult> result() const;
+  // The SVG preview, rendered once on first request and kept with the result.
+  void set_preview(std::shared_ptr<const std::string> svg);
+  std::shared_ptr<const std::string> preview() const;
 
 private:
   const std::string id_;
   CancelToken token_;
+  std::atomic<std::uint64_t> ticket_{0};
   mutable std::mutex mutex_;
   JobState state_ = JobState::queued;
   CancelReason cancel_reason_ = CancelReason::none;
@@ -89,6 +99,7 @@ private:
   std::optional<nlohmann::ordered_json> problem_;
   std::shared_ptr<const std::string> result_json_;
   std::shared_ptr<const ParametrizeResult> result_;
+  std::shared_ptr<const std::string> preview_;
 };
 
 class JobStore {

@@ -13,7 +13,7 @@ WorkerPool::WorkerPool(std::size_t workers, std::size_t queue_capacity) : capaci
 
 WorkerPool::~WorkerPool() { join(); }
 
-WorkerPool::Submit WorkerPool::submit(Task task) {
+WorkerPool::Submit WorkerPool::submit(Task task, std::uint64_t* ticket) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (closed_) return Submit::closed;
@@ -21,7 +21,9 @@ WorkerPool::Submit WorkerPool::submit(Task task) {
     // "waiting for a worker" never exceeds the capacity, even before an idle worker has woken up.
     const std::size_t idle = threads_.size() > running_ ? threads_.size() - running_ : 0;
     if (queue_.size() + 1 > capacity_ + idle) return Submit::queue_full;
-    queue_.push_back(std::move(task));
+    const std::uint64_t t = next_ticket_++;
+    queue_.emplace_back(t, std::move(task));
+    if (ticket) *ticket = t;
   }
   work_cv_.notify_one();
   return Submit::accepted;
@@ -34,7 +36,7 @@ void WorkerPool::run() {
       std::unique_lock<std::mutex> lock(mutex_);
       work_cv_.wait(lock, [this] { return closed_ || !queue_.empty(); });
       if (queue_.empty()) return;  // closed and drained
-      task = std::move(queue_.front());
+      task = std::move(queue_.front().second);
       queue_.pop_front();
       ++running_;
     }
@@ -52,6 +54,18 @@ void WorkerPool::run() {
       if (running_ == 0 && queue_.empty()) idle_cv_.notify_all();
     }
   }
+}
+
+bool WorkerPool::remove(std::uint64_t ticket) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (auto it = queue_.begin(); it != queue_.end(); ++it) {
+    if (it->first == ticket) {
+      queue_.erase(it);
+      if (running_ == 0 && queue_.empty()) idle_cv_.notify_all();
+      return true;
+    }
+  }
+  return false;
 }
 
 void WorkerPool::close() {

@@ -6,10 +6,12 @@
 #include <chrono>
 #include <condition_variable>
 #include <cstddef>
+#include <cstdint>
 #include <deque>
 #include <functional>
 #include <mutex>
 #include <thread>
+#include <utility>
 #include <vector>
 
 namespace lipmap::server {
@@ -26,8 +28,12 @@ public:
   WorkerPool& operator=(const WorkerPool&) = delete;
 
   enum class Submit { accepted, queue_full, closed };
-  // Never blocks. A task must not throw (an escaping exception is swallowed and counted, never fatal).
-  Submit submit(Task task);
+  // Never blocks. A task must not throw (an escaping exception is swallowed, never fatal). When accepted
+  // and `ticket` is given, it receives a number that remove() takes.
+  Submit submit(Task task, std::uint64_t* ticket = nullptr);
+  // Takes a task that is still waiting out of the queue (its place is free at once); false when a worker
+  // has already taken it.
+  bool remove(std::uint64_t ticket);
 
   // Stop accepting; tasks already queued still run.
   void close();
@@ -52,7 +58,8 @@ private:
   const std::size_t capacity_;
   mutable std::mutex mutex_;
   std::condition_variable work_cv_, idle_cv_;
-  std::deque<Task> queue_;
+  std::deque<std::pair<std::uint64_t, Task>> queue_;
+  std::uint64_t next_ticket_ = 1;
   std::size_t running_ = 0;
   bool closed_ = false;
   double mean_seconds_ = 0;

@@ -13,6 +13,10 @@
 //   node make_request.js mesh FILE.off|FILE.obj [circle]
 //       A mesh file (triangles only), with its boundary loop spread on a circle. The loop is found here,
 //       independently of the engine.
+//   node make_request.js invalid KIND
+//       A parametrize body whose mesh the validate stage must refuse: nonmanifold (three triangles on one
+//       edge), torus (a torus grid with one triangle removed: one boundary loop, genus 1, not a disk),
+//       closed (a tetrahedron: no boundary), annulus (two boundary loops). Boundary: a square.
 //   node make_request.js polygon BOUNDARY N
 //       A classify body {"polygon": ...} with the same boundary shapes, N vertices.
 // The body is written to standard output as one line of JSON.
@@ -116,6 +120,50 @@ function polygon(kind, n) {
   }
 }
 
+function invalidMesh(kind) {
+  switch (kind) {
+    case "nonmanifold":
+      // edge (0, 1) carries three triangles
+      return { vertices: [[0, 0, 0], [1, 0, 0], [0.5, 1, 0], [0.5, -1, 0], [0.5, 0, 1]],
+               faces: [[0, 1, 2], [1, 0, 3], [0, 1, 4]] };
+    case "closed":
+      return { vertices: [[0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, 1]], faces: [[0, 2, 1], [0, 1, 3], [1, 2, 3], [0, 3, 2]] };
+    case "torus": {
+      const n = 6, m = 6, R = 2, r = 0.7;
+      const vertices = [], faces = [];
+      for (let j = 0; j < m; j++)
+        for (let i = 0; i < n; i++) {
+          const u = (2 * Math.PI * i) / n, v = (2 * Math.PI * j) / m;
+          vertices.push([(R + r * Math.cos(v)) * Math.cos(u), (R + r * Math.cos(v)) * Math.sin(u), r * Math.sin(v)]);
+        }
+      const id = (i, j) => (j % m) * n + (i % n);
+      for (let j = 0; j < m; j++)
+        for (let i = 0; i < n; i++) {
+          faces.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+          faces.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+        }
+      faces.pop(); // one hole: a single boundary loop of three edges
+      return { vertices, faces };
+    }
+    case "annulus": {
+      const n = 8, vertices = [], faces = [];
+      for (let i = 0; i < n; i++) {
+        const a = (2 * Math.PI * i) / n;
+        vertices.push([Math.cos(a), Math.sin(a), 0]);
+        vertices.push([2 * Math.cos(a), 2 * Math.sin(a), 0]);
+      }
+      for (let i = 0; i < n; i++) {
+        const a = 2 * i, b = 2 * i + 1, c = (2 * i + 2) % (2 * n), d = (2 * i + 3) % (2 * n);
+        faces.push([a, b, d]);
+        faces.push([a, d, c]);
+      }
+      return { vertices, faces };
+    }
+    default:
+      throw new Error("unknown invalid mesh " + kind);
+  }
+}
+
 function readMesh(file) {
   const text = fs.readFileSync(file, "utf8");
   const vertices = [], faces = [];
@@ -157,11 +205,13 @@ function main(argv) {
     const mesh = readMesh(rest[0]);
     const loop = boundaryLoop(mesh.faces);
     body = { mesh, boundary: { positions: positionsFor(rest[1] || "circle", loop, mesh.vertices) } };
+  } else if (what === "invalid") {
+    body = { mesh: invalidMesh(rest[0]), boundary: { positions: [[0, 0], [1, 0], [1, 1], [0, 1]] } };
   } else if (what === "polygon") {
     process.stdout.write(JSON.stringify({ polygon: polygon(rest[0], parseInt(rest[1] || "16", 10)) }) + "\n");
     return;
   } else {
-    console.error("usage: make_request.js grid N BOUNDARY | mesh FILE [circle] | polygon BOUNDARY N");
+    console.error("usage: make_request.js grid N BOUNDARY | mesh FILE [circle] | invalid KIND | polygon BOUNDARY N");
     process.exit(2);
   }
   const options = {};
