@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <limits>
 #include <numeric>
 #include <string>
 #include <utility>
@@ -49,7 +50,8 @@ constexpr double kGrading = 1.0;
 // The interior may be made finer than the nominal size h0 by at most this factor (in edge length) to make up
 // for the coarser triangles along long polygon edges; beyond that the long edges' sizes are capped instead.
 constexpr double kMaxInteriorRefinement = 1.5;
-// Delaunay refinement makes about this many more triangles than the integral of the sizing field says.
+// Delaunay refinement makes about this many more triangles than the integral of the sizing field says
+// (measured); the lattice seeded where the field is uniform is spaced to match: h / sqrt(kCountCalibration).
 constexpr double kCountCalibration = 1.22;
 // Samples of the sizing field for one count estimate.
 constexpr double kEstimateSamples = 6000;
@@ -404,7 +406,8 @@ Attempt mesh_partition(const std::vector<Point2>& P, const Partition& part,
     const double expected = static_cast<double>(target) * area / total_area;
     const std::size_t max_points = static_cast<std::size_t>(4.0 * expected) + 1000;
     detail::PieceMeshResult r =
-        detail::mesh_simple_piece(pts, fields[pc], kSizeFactor, min_angle_deg, cap, max_points, cancel);
+        detail::mesh_simple_piece(pts, fields[pc], kSizeFactor, min_angle_deg, cap,
+                                  h / std::sqrt(kCountCalibration), max_points, cancel);
     out.hit_cap = out.hit_cap || r.hit_point_cap;
     const int base = static_cast<int>(out.vertices.size());
     const int m = static_cast<int>(pts.size());
@@ -421,8 +424,10 @@ Attempt mesh_partition(const std::vector<Point2>& P, const Partition& part,
 
 }  // namespace
 
-void verify_target_mesh(const BoundaryPolygon& polygon, const std::vector<Triangle>& coarse,
-                        const TargetMesh& mesh) {
+namespace {
+
+// verify_target_mesh; returns the smallest triangle angle (radians), a by-product of the angle sums.
+double verify_mesh(const BoundaryPolygon& polygon, const std::vector<Triangle>& coarse, const TargetMesh& mesh) {
   const std::vector<Point2>& P = polygon.vertices;
   const int n = static_cast<int>(P.size());
   const int V = static_cast<int>(mesh.vertices.size());
@@ -435,8 +440,6 @@ void verify_target_mesh(const BoundaryPolygon& polygon, const std::vector<Triang
       fail("verify: vertex " + std::to_string(v) + " is not finite");
 
   const int F = static_cast<int>(mesh.faces.size());
-  std::vector<std::uint64_t> directed;
-  directed.reserve(3 * static_cast<std::size_t>(F));
   std::vector<int> degree(V, 0);
   for (int f = 0; f < F; ++f) {
     const Triangle& t = mesh.faces[f];
@@ -444,76 +447,77 @@ void verify_target_mesh(const BoundaryPolygon& polygon, const std::vector<Triang
       if (t[c] < 0 || t[c] >= V) fail("verify: face " + std::to_string(f) + " has a vertex out of range");
     if (detail::orientation(mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]) <= 0)
       fail("verify: face " + std::to_string(f) + " is not strictly positive");
-    for (int c = 0; c < 3; ++c) {
-      directed.push_back(edge_key(t[c], t[(c + 1) % 3]));
-      ++degree[t[c]];
-    }
+    for (int c = 0; c < 3; ++c) ++degree[t[c]];
   }
-  std::sort(directed.begin(), directed.end());
-  for (std::size_t i = 1; i < directed.size(); ++i)
-    if (directed[i] == directed[i - 1])
-      fail("verify: directed edge (" + std::to_string(directed[i] >> 32) + ", " +
-           std::to_string(directed[i] & 0xffffffffu) + ") is used twice (not manifold)");
-  auto has = [&](int u, int v) { return std::binary_search(directed.begin(), directed.end(), edge_key(u, v)); };
-  long long boundary_edges = 0;
-  for (std::uint64_t key : directed) {
-    const int u = static_cast<int>(key >> 32), v = static_cast<int>(key & 0xffffffffu);
-    if (has(v, u)) continue;
-    ++boundary_edges;
-    if (u >= n || v != (u + 1) % n)
-      fail("verify: boundary edge (" + std::to_string(u) + ", " + std::to_string(v) + ") is not a polygon edge");
-  }
-  if (boundary_edges != n) fail("verify: the boundary is not the polygon's n edges");
   for (int v = 0; v < V; ++v)
     if (degree[v] == 0) fail("verify: vertex " + std::to_string(v) + " is in no face");
-  const long long E = (static_cast<long long>(directed.size()) + boundary_edges) / 2;
-  if (static_cast<long long>(V) - E + F != 1)
-    fail("verify: Euler characteristic " + std::to_string(static_cast<long long>(V) - E + F) + ", expected 1");
 
-  // One fan per vertex: the link is a single path (polygon vertex) or a single cycle (interior vertex);
-  // interior angle sums are one full turn; polygon vertices keep the coarse triangulation's angle.
+  // Links: for face (a, b, d), vertex a gets the pair (b, d), i.e. its outgoing edge a -> b and the next
+  // vertex of its fan. Sorted per vertex by b.
   std::vector<int> offset(V + 1, 0);
   for (int v = 0; v < V; ++v) offset[v + 1] = offset[v] + degree[v];
   std::vector<std::pair<int, int>> link(offset[V]);
   std::vector<double> angle_sum(V, 0.0);
+  double min_angle = M_PI;
   {
     std::vector<int> fill(offset.begin(), offset.end() - 1);
     for (const Triangle& t : mesh.faces)
       for (int c = 0; c < 3; ++c) {
         const int a = t[c], b = t[(c + 1) % 3], d = t[(c + 2) % 3];
         link[fill[a]++] = {b, d};
-        angle_sum[a] += corner_angle(mesh.vertices[a], mesh.vertices[b], mesh.vertices[d]);
+        const double angle = corner_angle(mesh.vertices[a], mesh.vertices[b], mesh.vertices[d]);
+        angle_sum[a] += angle;
+        min_angle = std::min(min_angle, angle);
       }
   }
+  for (int v = 0; v < V; ++v) std::sort(link.begin() + offset[v], link.begin() + offset[v + 1]);
+  auto next_of = [&](int v, int from) -> int {  // fan successor of `from` around v, -1 if none
+    const auto b = link.begin() + offset[v], e = link.begin() + offset[v + 1];
+    const auto it = std::lower_bound(b, e, std::make_pair(from, std::numeric_limits<int>::min()));
+    return (it != e && it->first == from) ? it->second : -1;
+  };
+
+  // Edge-manifold: every directed edge once; boundary edges (no reverse) are exactly P's edges k -> k+1.
+  long long boundary_edges = 0;
+  for (int a = 0; a < V; ++a)
+    for (int i = offset[a]; i < offset[a + 1]; ++i) {
+      const int b = link[i].first;
+      if (i > offset[a] && link[i - 1].first == b)
+        fail("verify: directed edge (" + std::to_string(a) + ", " + std::to_string(b) + ") is used twice (not manifold)");
+      if (next_of(b, a) >= 0) continue;
+      ++boundary_edges;
+      if (a >= n || b != (a + 1) % n)
+        fail("verify: boundary edge (" + std::to_string(a) + ", " + std::to_string(b) + ") is not a polygon edge");
+    }
+  if (boundary_edges != n) fail("verify: the boundary is not the polygon's n edges");
+  const long long E = (3LL * F + boundary_edges) / 2;
+  if (static_cast<long long>(V) - E + F != 1)
+    fail("verify: Euler characteristic " + std::to_string(static_cast<long long>(V) - E + F) + ", expected 1");
+
+  // One fan per vertex: the link is a single path (polygon vertex) or a single cycle (interior vertex);
+  // interior angle sums are one full turn; polygon vertices keep the coarse triangulation's angle.
   std::vector<double> coarse_angle(n, 0.0);
   for (const Triangle& t : coarse)
     for (int c = 0; c < 3; ++c)
       coarse_angle[t[c]] += corner_angle(P[t[c]], P[t[(c + 1) % 3]], P[t[(c + 2) % 3]]);
   for (int v = 0; v < V; ++v) {
-    auto b = link.begin() + offset[v], e = link.begin() + offset[v + 1];
-    std::sort(b, e);
-    auto next = [&](int from) -> int {
-      auto it = std::lower_bound(b, e, std::make_pair(from, -1));
-      return (it != e && it->first == from) ? it->second : -1;
-    };
     const int d = degree[v];
     int steps = 0;
     if (v < n) {
       int cur = (v + 1) % n;
-      while (cur != (v + n - 1) % n && steps <= d) {
-        cur = next(cur);
+      while (cur >= 0 && cur != (v + n - 1) % n && steps <= d) {
+        cur = next_of(v, cur);
         ++steps;
-        if (cur < 0) break;
       }
       if (cur != (v + n - 1) % n || steps != d)
         fail("verify: polygon vertex " + std::to_string(v) + " has more than one fan (not a disk)");
       if (std::fabs(angle_sum[v] - coarse_angle[v]) > 1e-6)
         fail("verify: angle at polygon vertex " + std::to_string(v) + " differs from the coarse triangulation's");
     } else {
-      const int start = b->first;
+      const int start = link[offset[v]].first;
       int cur = start;
       do {
-        cur = next(cur);
+        cur = next_of(v, cur);
         ++steps;
       } while (cur >= 0 && cur != start && steps <= d);
       if (cur != start || steps != d)
@@ -535,6 +539,14 @@ void verify_target_mesh(const BoundaryPolygon& polygon, const std::vector<Triang
   if (std::fabs(area - coarse_area) > 1e-9 * coarse_abs)
     fail("verify: total area " + std::to_string(area) + " differs from the coarse area " +
          std::to_string(coarse_area));
+  return min_angle;
+}
+
+}  // namespace
+
+void verify_target_mesh(const BoundaryPolygon& polygon, const std::vector<Triangle>& coarse,
+                        const TargetMesh& mesh) {
+  verify_mesh(polygon, coarse, mesh);
 }
 
 TargetMesh build_target_mesh(const BoundaryPolygon& polygon, const std::vector<Triangle>& coarse,
@@ -641,13 +653,7 @@ TargetMesh build_target_mesh(const BoundaryPolygon& polygon, const std::vector<T
   result.size = best_h;
 
   const auto tv = Clock::now();
-  verify_target_mesh(polygon, coarse, result);
-  double min_angle = M_PI;
-  for (const Triangle& t : result.faces)
-    for (int c = 0; c < 3; ++c)
-      min_angle = std::min(min_angle, corner_angle(result.vertices[t[c]], result.vertices[t[(c + 1) % 3]],
-                                                   result.vertices[t[(c + 2) % 3]]));
-  result.min_angle_deg = min_angle * 180.0 / M_PI;
+  result.min_angle_deg = verify_mesh(polygon, coarse, result) * 180.0 / M_PI;
   result.verify_ms = ms_since(tv);
   result.ms = ms_since(t0);
   return result;

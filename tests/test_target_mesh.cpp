@@ -529,6 +529,23 @@ TEST(TargetMesh, SourceLikeBoundariesGiveGoodTriangles) {
   for (const Case& cs : cases) check_counts(cs.c, cs.name, cs.q, {1.0}, cs.source);
 }
 
+TEST(TargetMesh, CollinearBoundaryVerticesAndFarCoordinates) {
+  // A square with three extra points on each side (straight polygon vertices), ear clipped.
+  std::vector<Point2> sq;
+  for (int side = 0; side < 4; ++side)
+    for (int k = 0; k < 4; ++k) {
+      const double t = k / 4.0;
+      const Point2 corners[4] = {{0, 0}, {1, 0}, {1, 1}, {0, 1}};
+      const Point2 a = corners[side], b = corners[(side + 1) % 4];
+      sq.push_back({a.x + (b.x - a.x) * t, a.y + (b.y - a.y) * t});
+    }
+  check_counts(simple_polygon(sq, false), "square with straight vertices", {0.0, 20}, {1.0});
+  // The self-overlapping strip far from the origin and small: relative precision is what matters.
+  Coarse far = strip(90, 1.5, 1.0, 2.0, 0.4, 3);
+  for (Point2& p : far.P.vertices) p = {1e6 + 1e-3 * p.x, -2e6 + 1e-3 * p.y};
+  check_counts(far, "far small strip", {0.01, 8}, {1.0});
+}
+
 TEST(TargetMesh, DeterministicAndInputKeptBitForBit) {
   Coarse c = strip(90, 1.5, 1.0, 2.0, 0.4);
   // Coordinates that do not round-trip through arithmetic: the output must still copy them exactly.

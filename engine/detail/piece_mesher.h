@@ -65,11 +65,13 @@ struct PieceMeshResult {
 // result and every Steiner point is strictly inside. Criteria: longest edge <= size_factor * field(centroid),
 // smallest angle >= min_angle_deg where the mesher can achieve it without touching the boundary. Points that
 // would make a bad triangle with a boundary edge are refused; lens_cap is the largest size the field asks for
-// next to long edges (infinity: uncapped), see Lens_conform in engine/piece_mesher.cpp. Stops after
-// max_steiner points. Checks its own output (boundary edges present, face count = m - 2 + 2s, positive
+// next to long edges (infinity: uncapped), see Lens_conform in engine/piece_mesher.cpp. With
+// lattice_spacing > 0, the region where the field is at its base size and that is clear of the boundary is
+// first filled with a hexagonal lattice of that spacing in one batch (much faster than refining it point by
+// point; its triangles are equilateral). Stops after max_steiner points. Checks its own output (boundary edges present, face count = m - 2 + 2s, positive
 // faces) and throws InternalError when a check fails.
 PieceMeshResult mesh_simple_piece(const std::vector<Point2>& boundary, const SizingField& field,
                                   double size_factor, double min_angle_deg, double lens_cap,
-                                  std::size_t max_steiner, const CancelToken* cancel);
+                                  double lattice_spacing, std::size_t max_steiner, const CancelToken* cancel);
 
 }  // namespace lipmap::detail
