@@ -52,6 +52,13 @@ int main(int argc, char** argv) {
   std::printf("# intermediate maps: median of %d runs, times in ms\n", runs);
   std::printf("# machine: %s %s %s %s; nproc %u; cpu %s\n", u.sysname, u.release, u.version, u.machine,
               std::thread::hardware_concurrency(), cpu_model().c_str());
+  {
+    std::ifstream load("/proc/loadavg");
+    std::string l1, l5, l15;
+    load >> l1 >> l5 >> l15;
+    std::printf("# load average at start: %s %s %s (timings are only comparable on an idle machine)\n", l1.c_str(),
+                l5.c_str(), l15.c_str());
+  }
   std::printf("# factor = CHOLMOD supernodal LLT of L_II; solve = one 2-column solve; check = exact orientation of\n"
               "# every triangle; total = whole stage incl. assembly and any fallback\n");
   std::printf("%-30s %7s %7s %5s | %-8s %8s %8s %8s %8s %8s %6s %5s\n", "mesh", "V", "F", "nb", "method", "assemble",
