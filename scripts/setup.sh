@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs every Debian package lipmap needs to build, run and test (DESIGN.md section 6).
 # Idempotent: when everything is already present it does nothing and takes well under a second.
+#   bash scripts/setup.sh [--with-tests] [--with-bench]
 set -euo pipefail
 
 build_packages=(
@@ -11,9 +12,16 @@ build_packages=(
   libtbb-dev libspdlog-dev libcli11-dev
 )
 test_packages=(googletest libgtest-dev libgmock-dev bats curl jq)
+bench_packages=(curl jq wrk)  # bench/bench_http.sh: an HTTP load generator on loopback
 
 want=("${build_packages[@]}")
-if [[ "${1:-}" == "--with-tests" ]]; then want+=("${test_packages[@]}"); fi
+for arg in "$@"; do
+  case "$arg" in
+    --with-tests) want+=("${test_packages[@]}") ;;
+    --with-bench) want+=("${bench_packages[@]}") ;;
+    *) echo "setup: unknown option $arg (expected --with-tests, --with-bench)" >&2; exit 2 ;;
+  esac
+done
 
 missing=()
 for p in "${want[@]}"; do

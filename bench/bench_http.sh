@@ -1,0 +1,123 @@
+#!/usr/bin/env bash
+# HTTP service benchmark (issue 4): what the service adds to a job, and how throughput scales with workers.
+#
+#   bash bench/bench_http.sh
+#
+# 1. The same job (a BENCH_GRID x BENCH_GRID-vertex grid, 2 (n-1)^2 triangles, mapped onto an annulus sector
+#    wound 1.25 turns, harmonic maps) through `lipmap map REQUEST.json -o OUT.json` and through
+#    `curl --json @REQUEST.json /v1/parametrize` against `lipmap serve --workers 1`, alternating, BENCH_RUNS
+#    times each after a warm-up; wall time per call (process start, reading, mapping, writing / the whole
+#    HTTP exchange), median of each, and their ratio. Both answers are compared (up to timings) to show it is
+#    the same job.
+# 2. Jobs per second for a small mesh (BENCH_SMALL_GRID, default 10: 162 triangles) through POST
+#    /v1/parametrize with 1 and with 2 workers: wrk on loopback (one thread, BENCH_CONNECTIONS connections,
+#    BENCH_DURATION), every answer 200.
+# Everything runs on 127.0.0.1. Needs node (tests/http/helpers/make_request.js writes the requests) and wrk
+# (scripts/setup.sh --with-bench installs it).
+#
+# Environment: LIPMAP_BUILD_DIR (default build), LIPMAP_JOBS (2), BENCH_RUNS (7), BENCH_GRID (72: 10082
+# triangles), BENCH_SMALL_GRID (10), BENCH_DURATION (10s), BENCH_CONNECTIONS (8).
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")/.."
+build_dir="${LIPMAP_BUILD_DIR:-build}"
+jobs="${LIPMAP_JOBS:-2}"
+runs="${BENCH_RUNS:-7}"
+grid="${BENCH_GRID:-72}"
+small="${BENCH_SMALL_GRID:-10}"
+duration="${BENCH_DURATION:-10s}"
+connections="${BENCH_CONNECTIONS:-8}"
+
+bash scripts/setup.sh --with-bench
+command -v node >/dev/null || { echo "bench_http: node is needed to write the requests (scripts/test.sh installs it)" >&2; exit 1; }
+cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_COMPILER_LAUNCHER=ccache >/dev/null
+cmake --build "$build_dir" -j "$jobs" --target lipmap >/dev/null
+lipmap="$build_dir/server/lipmap"
+
+work="$(mktemp -d)"
+server=""
+cleanup() {
+  if [[ -n "$server" ]] && kill -0 "$server" 2>/dev/null; then kill -TERM "$server"; wait "$server" 2>/dev/null || true; fi
+  rm -rf "$work"
+}
+trap cleanup EXIT
+
+start_server() {  # start_server WORKERS: sets $server and $url
+  "$lipmap" serve --host 127.0.0.1 --port 0 --workers "$1" --queue 256 --log-level warn 2>"$work/serve.log" &
+  server=$!
+  local port="" i
+  # the listening line is logged at info level: read the port from the socket table instead
+  for i in $(seq 100); do
+    port="$(ss -ltnpH 2>/dev/null | grep "pid=$server," | sed -E 's/.*127\.0\.0\.1:([0-9]+).*/\1/' | head -n 1 || true)"
+    [[ -n "$port" ]] && break
+    sleep 0.1
+  done
+  [[ -n "$port" ]] || { echo "bench_http: the service did not start" >&2; cat "$work/serve.log" >&2; exit 1; }
+  url="http://127.0.0.1:$port"
+}
+stop_server() {
+  kill -TERM "$server"
+  wait "$server" || true
+  server=""
+}
+median() { sort -g | awk '{a[NR] = $1} END {print (NR % 2) ? a[(NR + 1) / 2] : (a[NR / 2] + a[NR / 2 + 1]) / 2}'; }
+now_ns() { date +%s%N; }
+
+cpu="$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ *//')"
+mem="$(awk '/MemTotal/ {printf "%.0f GiB", $2 / 1048576}' /proc/meminfo)"
+echo "machine: $(nproc) cores, $cpu, $mem, $(uname -sr); load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
+
+# ---- 1. the same job: HTTP vs CLI ------------------------------------------------------------------------
+node tests/http/helpers/make_request.js grid "$grid" spiral --method harmonic >"$work/job.json"
+triangles=$((2 * (grid - 1) * (grid - 1)))
+echo "job: ${grid}x${grid} grid, $triangles triangles, onto a 1.25-turn annulus sector, harmonic; $(wc -c <"$work/job.json") bytes of request"
+start_server 1
+# warm-up (page cache, allocator, CHOLMOD's first call)
+"$lipmap" map "$work/job.json" -o "$work/cli.json"
+curl -sS -o "$work/http.json" --json "@$work/job.json" "$url/v1/parametrize"
+: >"$work/cli.times"
+: >"$work/http.times"
+for i in $(seq "$runs"); do
+  t0=$(now_ns)
+  "$lipmap" map "$work/job.json" -o "$work/cli.json"
+  t1=$(now_ns)
+  echo "scale=6; ($t1 - $t0) / 1000000000" | bc >>"$work/cli.times"
+  code="$(curl -sS -o "$work/http.json" -w '%{http_code} %{time_total}' --json "@$work/job.json" "$url/v1/parametrize")"
+  [[ "${code%% *}" == 200 ]] || { echo "bench_http: HTTP ${code%% *}: $(head -c 300 "$work/http.json")" >&2; exit 1; }
+  echo "${code#* }" >>"$work/http.times"
+done
+stop_server
+same="no"
+if [[ "$(jq -c 'del(.diagnostics.timings_ms)' "$work/cli.json")" == "$(jq -c 'del(.diagnostics.timings_ms)' "$work/http.json")" ]]; then same="yes"; fi
+cli_median="$(median <"$work/cli.times")"
+http_median="$(median <"$work/http.times")"
+engine_ms="$(jq .diagnostics.timings_ms.total "$work/http.json")"
+answer_bytes="$(wc -c <"$work/http.json")"
+ratio="$(echo "scale=4; $http_median / $cli_median" | bc)"
+printf 'same job, %d runs each (median wall time): lipmap map %.3f s, HTTP %.3f s, ratio HTTP/CLI %.3f (%+.1f%%); engine total %.0f ms; answer %d bytes; identical answers: %s\n' \
+  "$runs" "$cli_median" "$http_median" "$ratio" "$(echo "($ratio - 1) * 100" | bc -l)" "$engine_ms" "$answer_bytes" "$same"
+echo "  cli:  $(tr '\n' ' ' <"$work/cli.times")"
+echo "  http: $(tr '\n' ' ' <"$work/http.times")"
+
+# ---- 2. jobs per second, 1 and 2 workers --------------------------------------------------------------------
+node tests/http/helpers/make_request.js grid "$small" spiral --method harmonic >"$work/small.json"
+cat >"$work/post.lua" <<EOF
+wrk.method = "POST"
+wrk.headers["Content-Type"] = "application/json"
+local f = io.open("$work/small.json", "rb")
+wrk.body = f:read("*a")
+f:close()
+EOF
+declare -A rate
+for w in 1 2; do
+  start_server "$w"
+  curl -sS -o /dev/null --json "@$work/small.json" "$url/v1/parametrize"  # warm-up
+  wrk -t1 -c"$connections" -d"$duration" --latency -s "$work/post.lua" "$url/v1/parametrize" >"$work/wrk.$w"
+  stop_server
+  if grep -q 'Non-2xx' "$work/wrk.$w"; then echo "bench_http: non-2xx answers with $w workers:" >&2; cat "$work/wrk.$w" >&2; exit 1; fi
+  rate[$w]="$(awk '/Requests\/sec/ {print $2}' "$work/wrk.$w")"
+  p50="$(awk '/ 50%/ {print $2}' "$work/wrk.$w")"
+  p99="$(awk '/ 99%/ {print $2}' "$work/wrk.$w")"
+  echo "small jobs ($((2 * (small - 1) * (small - 1))) triangles), $w worker(s), $connections connections, $duration: ${rate[$w]} jobs/s (latency p50 $p50, p99 $p99)"
+done
+printf 'scaling 2 workers / 1 worker: %.2fx\n' "$(echo "${rate[2]} / ${rate[1]}" | bc -l)"
+echo "load average after: $(cut -d' ' -f1-3 /proc/loadavg) (other processes on the machine take cores from the workers: compare with nproc)"
