@@ -431,7 +431,7 @@ struct HttpServer::Impl {
       // Copied, not streamed: cpp-httplib stops content providers as soon as the server stops, which would
       // cut off the answers that SIGTERM lets finish.
       res.set_content(*a.shared_body, a.content_type);
-    } else {
+    } else if (!a.content_type.empty()) {
       res.set_content(a.body, a.content_type);
     }
   }
