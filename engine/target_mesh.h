@@ -2,19 +2,32 @@
 // coarse triangulation (classify: n - 2 positive triangles, no interior vertices) build the finer target
 // mesh M_t whose boundary is exactly P.
 //
-//  1. Partition: merge coarse triangles across interior edges while the union stays a simple polygon
-//     (exact CGAL::is_simple_2); badly shaped diagonals (long against their triangles) are removed first.
-//     A simple P is one piece. Sheets that overlap in the plane always end up in different pieces.
-//  2. Split every interior edge of the partition into k = max(1, round(length / h)) equal segments; the
-//     split points belong to the edge (identified by edge and k, never by position), so both sides use the
-//     same vertices.
-//  3. Mesh each piece with CGAL's constrained Delaunay mesher that never splits constrained edges: P's edges
-//     are never split and the split interior edges are not split further.
-//  4. Glue: polygon vertex k keeps id k; split points follow, then the pieces' Steiner points.
+//  1. Partition: merge coarse triangles across interior edges while the union stays a simple polygon (exact
+//     test of the glued union, engine/piece_mesher.cpp); diagonals that are long against their triangles are
+//     removed first. A simple P is one piece. Sheets that overlap in the plane end up in different pieces.
+//  2. Size: h0 is the edge length of an equilateral triangle of area (summed coarse area, overlapping sheets
+//     counted each time) / target. Polygon edges may not be split, so next to an edge longer than the local
+//     size the mesh must be about as coarse as the edge; a sizing field grades from each polygon edge's
+//     length down to the base size h. The base size (and, if the long edges alone would leave too few
+//     triangles, a cap on the sizes they ask for) is chosen from an estimate of the resulting count, so that
+//     the count lands near the target without a second meshing pass (one more is made if it misses by 25%).
+//  3. Split every interior edge of the partition at equal steps of the integral of 1/size along it (in a
+//     uniform zone: k = max(1, round(length / h)) equal segments). The split points belong to the edge
+//     (identified by the edge and k, never by position), so both sides use the same vertices.
+//  4. Mesh each piece with CGAL's constrained Delaunay mesher that never splits constrained edges: P's edges
+//     are never split and the split interior edges are not split further. The uniform zone is first filled
+//     with a hexagonal lattice in one batch; Delaunay refinement (size from the field, smallest angle
+//     min_angle_deg) does the rest. Points that would make a bad triangle with a constrained edge are refused
+//     (a thinner rule than CGAL's Gabriel test, which leaves fans of needles next to long edges).
+//  5. Glue: polygon vertex k keeps id k; split points follow, then the pieces' Steiner points.
 // The result is verified before it is returned (strictly positive faces by the exact predicate, a disk
 // whose single boundary loop is 0, 1, ..., n-1 with the interior on the left, interior angle sums 2 pi,
 // angle at every polygon vertex equal to the coarse triangulation's, total area equal to the coarse area);
 // any failure throws InternalError with the reason.
+//
+// Quality: with boundaries like a source mesh's (edges about as long as the target size) every triangle
+// meets the angle bound except at polygon corners sharper than it. Polygon edges many times longer than the
+// target size cost some bad triangles next to them (they may not be split).
 #pragma once
 
 #include <vector>
