@@ -37,6 +37,7 @@
 #include "engine/classify.h"
 #include "engine/error.h"
 #include "engine/mesh_io.h"
+#include "server/gltf_codec.h"
 #include "server/json_codec.h"
 #include "server/svg_preview.h"
 #include "server/serve_command.h"
@@ -199,8 +200,8 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
   const bool boundary_from_file = !args.boundary_file.empty();
   // Usage problems first, before any work.
   const std::string out_ext = lower_extension(args.output_file);
-  if (out_ext != "obj" && out_ext != "json") {
-    error_line(err, "usage", "-o must name a .obj or .json file, got '" + args.output_file + "' (run 'lipmap map --help')");
+  if (out_ext != "obj" && out_ext != "json" && out_ext != "glb" && out_ext != "gltf") {
+    error_line(err, "usage", "-o must name a .obj, .json, .glb or .gltf file, got '" + args.output_file + "' (run 'lipmap map --help')");
     return kExitUsageError;
   }
   if (!mesh_from_json && !boundary_from_file) {
@@ -213,7 +214,23 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
     RawMesh mesh;
     RawBoundary boundary;
     ParametrizeOptions options;  // engine defaults (method harmonic)
-    if (mesh_from_json) {
+    // glTF in (.glb / .gltf, server/gltf_codec.h): the selected primitive; --boundary texcoord:N pins the
+    // boundary to its TEXCOORD_N. glTF out: the input document (or a fresh one) with the refined primitive.
+    std::optional<gltf::Asset> gltf_asset;
+    std::optional<int> texcoord_boundary;
+    const std::optional<gltf::Format> gltf_in = gltf::format_from_path(args.mesh_file);
+    if (boundary_from_file) texcoord_boundary = gltf::parse_texcoord_spec(args.boundary_file);
+    if (texcoord_boundary && !gltf_in)
+      throw MapFailure("usage", "--boundary texcoord:N needs a .glb or .gltf MESH", kExitUsageError);
+    if (gltf_in) {
+      gltf::Selection selection;
+      selection.mesh = args.gltf_mesh;
+      selection.primitive = args.gltf_primitive;
+      selection.weld = args.weld == "position" ? gltf::Weld::position : gltf::Weld::none;
+      gltf_asset = gltf::Asset::read(read_all(args.mesh_file, std::cin), selection, gltf_in);
+      mesh = gltf_asset->mesh();
+      if (texcoord_boundary) boundary = gltf_asset->texcoord_boundary(*texcoord_boundary);
+    } else if (mesh_from_json) {
       try {
         const nlohmann::json body = codec::parse_json(read_all(args.mesh_file, std::cin));
         // The body's boundary is required by the request's shape; with --boundary it is still parsed
@@ -232,7 +249,7 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
     } else {
       mesh = read_mesh_file(args.mesh_file);
     }
-    if (boundary_from_file) {
+    if (boundary_from_file && !texcoord_boundary) {
       try {
         boundary = codec::boundary_from_json(codec::parse_json(read_all(args.boundary_file, std::cin)));
       } catch (const codec::JsonError& e) {
@@ -290,7 +307,11 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
     }
 
     // ---- outputs ----
-    if (out_ext == "obj") {
+    if (out_ext == "glb" || out_ext == "gltf") {
+      const gltf::Asset asset = gltf_asset ? *gltf_asset : gltf::Asset::from_mesh(mesh);
+      write_text_file(args.output_file,
+                      gltf::write_answer(asset, result, out_ext == "glb" ? gltf::Format::glb : gltf::Format::gltf));
+    } else if (out_ext == "obj") {
       std::ostringstream text;
       write_obj(text, result.map.vertices, result.map.faces, &result.map.uv);
       write_text_file(args.output_file, text.str());
@@ -366,14 +387,25 @@ int run(int argc, const char* const* argv, std::istream& in, std::ostream& out, 
                "needed) and write the refined mesh with its uv");
     map_cmd
         ->add_option("MESH", map_args.mesh_file,
-                     "The mesh (.obj, .off, .ply, .stl), or a .json POST /v1/parametrize body {mesh, boundary, options}")
+                     "The mesh (.obj, .off, .ply, .stl, .glb, .gltf), or a .json POST /v1/parametrize body {mesh, boundary, options}")
         ->required();
     map_cmd->add_option("--boundary,-b", map_args.boundary_file,
                         "JSON {\"vertices\": [i...]?, \"positions\": [[u, v]...], \"rotation_indices\": [r...]?}: "
-                        "the image of the boundary loop (required unless MESH is .json; replaces the body's)");
+                        "the image of the boundary loop (required unless MESH is .json; replaces the body's); "
+                        "for a .glb/.gltf MESH also texcoord:N (each boundary vertex stays at its TEXCOORD_N)");
     map_cmd->add_option("--output,-o", map_args.output_file,
-                        "OUT.obj (v, vt, f v/vt lines) or OUT.json (the HTTP answer of POST /v1/parametrize)")
+                        "OUT.obj (v, vt, f v/vt lines), OUT.json (the HTTP answer of POST /v1/parametrize), or "
+                        "OUT.glb / OUT.gltf (the glTF document with the refined primitive, TEXCOORD_0 = (u, 1 - v))")
         ->required();
+    map_cmd->add_option("--gltf-mesh", map_args.gltf_mesh, "glTF MESH: index of the mesh to map (default 0)")
+        ->check(CLI::NonNegativeNumber);
+    map_cmd->add_option("--gltf-primitive", map_args.gltf_primitive,
+                        "glTF MESH: index of the primitive of that mesh (default 0)")
+        ->check(CLI::NonNegativeNumber);
+    map_cmd->add_option("--weld", map_args.weld,
+                        "glTF MESH: none (default) or position (merge vertices with bit-identical POSITION, as glTF "
+                        "splits them at seams)")
+        ->check(CLI::IsMember({"none", "position"}));
     map_cmd->add_option("--method", map_args.method, "Intermediate maps: harmonic (default) or tutte")
         ->check(CLI::IsMember({"tutte", "harmonic"}));
     map_cmd->add_flag("--no-refine", map_args.no_refine,

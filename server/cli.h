@@ -41,6 +41,11 @@ struct MapArgs {
   std::string preview_file;    // empty: none
   bool progress = false;
   bool pretty = false;
+  // glTF MESH (.glb / .gltf, server/gltf_codec.h): which primitive, and whether to weld split vertices.
+  // BOUNDARY may then also be texcoord:N; OUT may be .glb / .gltf (for any MESH).
+  int gltf_mesh = 0;
+  int gltf_primitive = 0;
+  std::string weld = "none";  // "none" or "position"
 };
 int map_command(const MapArgs& args, std::ostream& out, std::ostream& err);
 
