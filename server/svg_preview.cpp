@@ -217,45 +217,51 @@ std::string render_svg(const MapPicture& p, const SvgOptions& options) {
   dots("inserted", p.inserted, "#ff7f00", 0.006 * D);
   dots("singular", p.singular, "#e7298a", 0.011 * D);
 
+  // Legend and caption are drawn in local units where the font is 14 high, scaled into the viewBox: text
+  // at a font size of a fraction of a user unit renders badly (hinting) in some viewers.
+  constexpr double F = 14, LH = 1.45 * F, SW = 1.6 * F;
+  const double k = font / F;  // local unit -> user unit
+  auto text = [&](double x, double y, const std::string& t) {
+    out += "<text x=\"" + num(x) + "\" y=\"" + num(y) + "\">" + escape_xml(t) + "</text>\n";
+  };
+
   // ---- legend (right of the picture) ----
   {
     const double lx = x1 + margin * 1.5, ly = -y1;
-    const double sw = 1.6 * font;
-    out += "<g id=\"legend\" font-size=\"" + num(font) + "\" fill=\"#000000\">\n";
-    out += "<text x=\"" + num(lx) + "\" y=\"" + num(ly + font) + "\">conformal distortion K</text>\n";
+    out += "<g id=\"legend\" transform=\"translate(" + num(lx) + " " + num(ly) + ") scale(" + num(k) +
+           ")\" font-size=\"14\" fill=\"#000000\">\n";
+    text(0, F, "conformal distortion K");
     for (int i = 0; i < 8; ++i) {
-      const double y = ly + (i + 1.4) * line_h;
-      out += "<rect x=\"" + num(lx) + "\" y=\"" + num(y) + "\" width=\"" + num(sw) + "\" height=\"" + num(font) +
-             "\" fill=\"" + bin_colours()[i] + "\" stroke=\"#444444\" stroke-width=\"" + num(0.05 * font) + "\"/>\n";
-      out += "<text x=\"" + num(lx + sw * 1.3) + "\" y=\"" + num(y + 0.85 * font) + "\">" + escape_xml(bin_label(i)) +
-             "</text>\n";
+      const double y = (i + 1.4) * LH;
+      out += "<rect x=\"0\" y=\"" + num(y) + "\" width=\"" + num(SW) + "\" height=\"" + num(F) + "\" fill=\"" +
+             bin_colours()[i] + "\" stroke=\"#444444\" stroke-width=\"0.7\"/>\n";
+      text(SW * 1.3, y + 0.85 * F, bin_label(i));
     }
-    double y = ly + 9.8 * line_h;
-    out += "<rect x=\"" + num(lx) + "\" y=\"" + num(y) + "\" width=\"" + num(sw) + "\" height=\"" + num(font) +
-           "\" fill=\"" + kFlippedColour + "\"/>\n";
-    out += "<text x=\"" + num(lx + sw * 1.3) + "\" y=\"" + num(y + 0.85 * font) + "\">non-positive (flipped)</text>\n";
-    y += line_h;
-    out += "<line x1=\"" + num(lx) + "\" y1=\"" + num(y + 0.5 * font) + "\" x2=\"" + num(lx + sw) + "\" y2=\"" +
-           num(y + 0.5 * font) + "\" stroke=\"#000000\" stroke-width=\"" + num(0.0025 * D) + "\"/>\n";
-    out += "<text x=\"" + num(lx + sw * 1.3) + "\" y=\"" + num(y + 0.85 * font) + "\">target boundary</text>\n";
-    y += line_h;
-    out += "<circle cx=\"" + num(lx + 0.5 * sw) + "\" cy=\"" + num(y + 0.5 * font) + "\" r=\"" + num(0.3 * font) +
-           "\" fill=\"#ff7f00\" stroke=\"#000000\" stroke-width=\"" + num(0.06 * font) + "\"/>\n";
-    out += "<text x=\"" + num(lx + sw * 1.3) + "\" y=\"" + num(y + 0.85 * font) + "\">inserted vertex</text>\n";
-    y += line_h;
-    out += "<circle cx=\"" + num(lx + 0.5 * sw) + "\" cy=\"" + num(y + 0.5 * font) + "\" r=\"" + num(0.4 * font) +
-           "\" fill=\"#e7298a\" stroke=\"#000000\" stroke-width=\"" + num(0.06 * font) + "\"/>\n";
-    out += "<text x=\"" + num(lx + sw * 1.3) + "\" y=\"" + num(y + 0.85 * font) + "\">singular vertex</text>\n";
+    double y = 9.8 * LH;
+    out += "<rect x=\"0\" y=\"" + num(y) + "\" width=\"" + num(SW) + "\" height=\"" + num(F) + "\" fill=\"" +
+           kFlippedColour + "\"/>\n";
+    text(SW * 1.3, y + 0.85 * F, "non-positive (flipped)");
+    y += LH;
+    out += "<line x1=\"0\" y1=\"" + num(y + 0.5 * F) + "\" x2=\"" + num(SW) + "\" y2=\"" + num(y + 0.5 * F) +
+           "\" stroke=\"#000000\" stroke-width=\"2\"/>\n";
+    text(SW * 1.3, y + 0.85 * F, "target boundary");
+    y += LH;
+    out += "<circle cx=\"" + num(0.5 * SW) + "\" cy=\"" + num(y + 0.5 * F) + "\" r=\"" + num(0.3 * F) +
+           "\" fill=\"#ff7f00\" stroke=\"#000000\" stroke-width=\"0.8\"/>\n";
+    text(SW * 1.3, y + 0.85 * F, "inserted vertex");
+    y += LH;
+    out += "<circle cx=\"" + num(0.5 * SW) + "\" cy=\"" + num(y + 0.5 * F) + "\" r=\"" + num(0.4 * F) +
+           "\" fill=\"#e7298a\" stroke=\"#000000\" stroke-width=\"0.8\"/>\n";
+    text(SW * 1.3, y + 0.85 * F, "singular vertex");
     out += "</g>\n";
   }
 
   // ---- caption (under the picture) ----
   if (!p.caption.empty()) {
     const double cx = x0, cy = -y1 + draw_h + margin + 0.2 * line_h;
-    out += "<g id=\"caption\" font-size=\"" + num(font) + "\" fill=\"#000000\">\n";
-    for (std::size_t i = 0; i < p.caption.size(); ++i)
-      out += "<text x=\"" + num(cx) + "\" y=\"" + num(cy + (static_cast<double>(i) + 1) * line_h) + "\">" +
-             escape_xml(p.caption[i]) + "</text>\n";
+    out += "<g id=\"caption\" transform=\"translate(" + num(cx) + " " + num(cy) + ") scale(" + num(k) +
+           ")\" font-size=\"14\" fill=\"#000000\">\n";
+    for (std::size_t i = 0; i < p.caption.size(); ++i) text(0, (static_cast<double>(i) + 1) * LH, p.caption[i]);
     out += "</g>\n";
   }
   out += "</svg>\n";
