@@ -8,6 +8,7 @@
 #include <condition_variable>
 #include <ctime>
 #include <future>
+#include <map>
 #include <mutex>
 #include <new>
 #include <optional>
@@ -28,6 +29,7 @@
 #include "engine/error.h"
 #include "engine/pipeline.h"
 #include "engine/validate.h"
+#include "server/gltf_codec.h"
 #include "server/job_store.h"
 #include "server/json_codec.h"
 #include "server/metrics.h"
@@ -40,6 +42,7 @@
 
 // Last: with its OpenSSL support cpp-httplib pulls in <resolv.h>, whose `_res` macro breaks Eigen's headers.
 #include <httplib.h>
+#include <sys/socket.h>
 
 namespace lipmap::server {
 
@@ -208,6 +211,16 @@ Answer problem_answer(int status, const std::string& code, const std::string& de
 }
 
 enum class WorkKind { classify, parametrize };
+
+// A parametrize answer in glTF (Accept: model/gltf-binary or model/gltf+json, server/gltf_codec.h): the
+// request's document with the refined primitive, or a fresh document for a JSON request.
+Answer gltf_answer(const std::shared_ptr<const gltf::Asset>& asset, const ParametrizeResult& result, gltf::Format f) {
+  Answer a;
+  a.content_type = gltf::media_type(f);
+  a.shared_body = std::make_shared<const std::string>(asset ? gltf::write_answer(*asset, result, f)
+                                                            : gltf::write_answer(result, f));
+  return a;
+}
 
 // An InputError of the codec (400) or of the engine (422), with its pointer, element and index.
 ordered_json input_problem(const InputError& e, WorkKind kind) {
@@ -396,6 +409,7 @@ struct HttpServer::Impl {
   const Clock::time_point started_at = Clock::now();
   int port = -1;
   bool clean = true;
+  socket_t listen_socket = -1;
 
   Impl(ServerConfig c, std::shared_ptr<spdlog::logger> logger)
       : config(resolve(std::move(c))),
@@ -603,13 +617,27 @@ struct HttpServer::Impl {
     });
   }
 
-  // Parses a parametrize body on the connection thread; an Answer when it is refused.
-  std::variant<std::shared_ptr<const codec::ParametrizeRequest>, Answer> parse_parametrize(const httplib::Request& req) {
+  // Parses a parametrize body on the connection thread; an Answer when it is refused. glTF requests
+  // (server/gltf_codec.h: model/gltf-binary, model/gltf+json, multipart/form-data, or a JSON envelope with
+  // gltf_base64) also hand back their document in *gltf_asset.
+  std::variant<std::shared_ptr<const codec::ParametrizeRequest>, Answer> parse_parametrize(
+      const httplib::Request& req, std::shared_ptr<const gltf::Asset>* gltf_asset = nullptr) {
     if (auto a = refuse_when_draining()) return *a;
-    if (auto a = require_json(req)) return *a;
+    const std::string raw_type = req.get_header_value("Content-Type");
+    const std::string media = lower(trim(raw_type.substr(0, raw_type.find(';'))));
+    const std::optional<gltf::Format> model_format = gltf::format_from_media_type(media);
+    if (model_format || media == "multipart/form-data") return parse_gltf_parametrize(req, nullptr, model_format, gltf_asset);
+    if (auto a = require_json(req)) {
+      (*a->problem)["supported"] = {"application/json", "model/gltf-binary", "model/gltf+json", "multipart/form-data"};
+      for (auto& [k, v] : a->headers)
+        if (k == "Accept-Post") v = "application/json, model/gltf-binary, model/gltf+json, multipart/form-data";
+      return *a;
+    }
     auto request = std::make_shared<codec::ParametrizeRequest>();
     try {
-      *request = codec::parametrize_request_from_json(codec::parse_json(req.body));
+      const nlohmann::json body = codec::parse_json(req.body);
+      if (gltf::is_envelope(body)) return parse_gltf_parametrize(req, &body, std::nullopt, gltf_asset);
+      *request = codec::parametrize_request_from_json(body);
     } catch (const InputError& e) {
       return problem_answer(input_problem(e, WorkKind::parametrize));
     }
@@ -617,14 +645,57 @@ struct HttpServer::Impl {
     return std::shared_ptr<const codec::ParametrizeRequest>(std::move(request));
   }
 
+  // A glTF parametrize request: query parameters mesh, primitive, weld, boundary (texcoord:N).
+  std::variant<std::shared_ptr<const codec::ParametrizeRequest>, Answer> parse_gltf_parametrize(
+      const httplib::Request& req, const nlohmann::json* envelope, std::optional<gltf::Format> model_format,
+      std::shared_ptr<const gltf::Asset>* gltf_asset) {
+    gltf::Params params;
+    auto param = [&](const char* name) -> std::optional<std::string> {
+      if (!req.has_param(name)) return std::nullopt;
+      return req.get_param_value(name);
+    };
+    params.mesh = param("mesh");
+    params.primitive = param("primitive");
+    params.weld = param("weld");
+    params.boundary = param("boundary");
+    std::optional<gltf::Request> r;
+    try {
+      if (envelope) {
+        r = gltf::request_from_envelope(*envelope, params);
+      } else if (model_format) {
+        r = gltf::request_from_model(req.body, *model_format, params);
+      } else {
+        std::map<std::string, gltf::Part> parts;
+        for (const auto& [name, file] : req.files) {
+          if (parts.count(name)) throw gltf::GltfError("gltf_invalid_request", "multipart part \"" + name + "\" is given twice");
+          parts[name] = gltf::Part{file.content, file.content_type};
+        }
+        r = gltf::request_from_parts(parts, params);
+      }
+    } catch (const gltf::GltfError& e) {
+      return problem_answer(gltf::problem_json(e));
+    } catch (const codec::JsonError& e) {
+      return problem_answer(input_problem(e, WorkKind::parametrize));
+    } catch (const InputError& e) {  // the validate stage's code, about the glTF primitive
+      return problem_answer(problem(422, e.code(), e.what(), std::nullopt, e.element(), e.index()));
+    }
+    auto request = std::make_shared<const codec::ParametrizeRequest>(std::move(r->request));
+    if (auto a = check_mesh_limits(*request)) return *a;
+    if (gltf_asset) *gltf_asset = std::make_shared<const gltf::Asset>(std::move(r->asset));
+    return request;
+  }
+
   Answer handle_parametrize(const httplib::Request& req) {
-    auto parsed = parse_parametrize(req);
+    std::shared_ptr<const gltf::Asset> asset;
+    auto parsed = parse_parametrize(req, &asset);
     if (auto* a = std::get_if<Answer>(&parsed)) return std::move(*a);
     auto request = std::get<std::shared_ptr<const codec::ParametrizeRequest>>(std::move(parsed));
     const TestHooks hooks = hooks_of(req);
-    return run_sync(WorkKind::parametrize, [this, request, hooks](const CancelToken& token) {
+    const std::optional<gltf::Format> answer_format = gltf::accepted_format(req.get_header_value("Accept"));
+    return run_sync(WorkKind::parametrize, [this, request, hooks, asset, answer_format](const CancelToken& token) {
       apply_hooks(hooks, token);
       MapOutcome m = run_map(*request, token, {}, metrics);
+      if (answer_format && m.result) return gltf_answer(asset, *m.result, *answer_format);
       Answer a;
       a.shared_body = std::move(m.json);
       return a;
@@ -687,11 +758,13 @@ struct HttpServer::Impl {
   }
 
   Answer handle_submit_job(const httplib::Request& req) {
-    auto parsed = parse_parametrize(req);
+    std::shared_ptr<const gltf::Asset> asset;
+    auto parsed = parse_parametrize(req, &asset);
     if (auto* a = std::get_if<Answer>(&parsed)) return std::move(*a);
     auto request = std::get<std::shared_ptr<const codec::ParametrizeRequest>>(std::move(parsed));
     const TestHooks hooks = hooks_of(req);
     std::shared_ptr<Job> job = store.create();
+    if (asset) job->set_attachment(asset);  // GET .../result with Accept: model/gltf-* answers in that document
     job->token().set_deadline(deadline_from_arrival());
     std::uint64_t ticket = 0;
     const WorkerPool::Submit submitted =
@@ -782,12 +855,21 @@ struct HttpServer::Impl {
     return a;
   }
 
-  Answer handle_job_result(const std::string& id) {
+  Answer handle_job_result(const std::string& id, const std::string& accept = {}) {
     auto found = lookup_job(id);
     if (auto* a = std::get_if<Answer>(&found)) return std::move(*a);
     std::shared_ptr<Job> job = std::get<std::shared_ptr<Job>>(found);
     const JobSnapshot s = job->snapshot();
     if (s.state != JobState::succeeded) return not_finished(*job, s);
+    if (const std::optional<gltf::Format> f = gltf::accepted_format(accept)) {
+      std::shared_ptr<const ParametrizeResult> result = job->result();
+      auto asset = std::static_pointer_cast<const gltf::Asset>(job->attachment());
+      if (result)  // writing the glTF is engine-side work: on the pool
+        return run_sync(WorkKind::parametrize, [result, asset, f](const CancelToken& token) {
+          token.check();
+          return gltf_answer(asset, *result, *f);
+        });
+    }
     Answer a;
     a.shared_body = job->result_json();
     return a;
@@ -872,6 +954,14 @@ struct HttpServer::Impl {
     http.set_read_timeout(30, 0);
     http.set_write_timeout(30, 0);
     http.set_tcp_nodelay(true);
+    // cpp-httplib's default also sets SO_REUSEPORT, which lets a second service bind the same port and
+    // silently take half of its connections: plain SO_REUSEADDR only. The socket that binds is the last
+    // one this sees; bind() then widens its listen backlog (cpp-httplib 0.11 fixes it at 5).
+    http.set_socket_options([this](socket_t sock) {
+      int yes = 1;
+      ::setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, reinterpret_cast<const char*>(&yes), sizeof yes);
+      listen_socket = sock;
+    });
 
     http.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
       begin_request(req, res);
@@ -991,7 +1081,7 @@ struct HttpServer::Impl {
       guarded(req, res, WorkKind::parametrize, [&] { return handle_delete_job(req.matches[1]); });
     });
     http.Get(R"(/v1/jobs/([^/]+)/result)", [this](const Req& req, Res& res) {
-      guarded(req, res, WorkKind::parametrize, [&] { return handle_job_result(req.matches[1]); });
+      guarded(req, res, WorkKind::parametrize, [&] { return handle_job_result(req.matches[1], req.get_header_value("Accept")); });
     });
     http.Get(R"(/v1/jobs/([^/]+)/preview\.svg)", [this](const Req& req, Res& res) {
       guarded(req, res, WorkKind::parametrize, [&] { return handle_job_preview(req.matches[1]); });
@@ -1065,6 +1155,7 @@ int HttpServer::bind() {
     throw std::runtime_error("cannot listen on " + s.config.host + ":" + std::to_string(s.config.port) +
                              " (address in use, not a local address, or not permitted)");
   s.port = port;
+  if (s.listen_socket >= 0) ::listen(s.listen_socket, SOMAXCONN);  // after bind: only the backlog changes
   return port;
 }
 
@@ -1110,6 +1201,10 @@ bool HttpServer::shutdown() {
   std::lock_guard<std::mutex> lock(s.shutdown_mutex);
   if (s.stopped) return s.clean;
   s.stopped = true;
+  if (!s.started) {  // never served (bind failed): nothing to drain
+    s.pool.join();
+    return true;
+  }
   const auto t0 = Clock::now();
   s.draining = true;
   s.event(spdlog::level::info, {{"event", "draining"},

@@ -33,6 +33,15 @@ teardown() {
   expect 200
 }
 
+@test "a second service on the same port fails at once (exit 1, listen_failed) and takes none of its traffic" {
+  port="${MAIN_URL##*:}"
+  run --separate-stderr "$LIPMAP" serve --host 127.0.0.1 --port "$port"
+  [ "$status" -eq 1 ]
+  [[ "$stderr" == "lipmap: error: listen_failed: "* ]]
+  call GET "$MAIN_URL/healthz"
+  expect 200
+}
+
 @test "a sane incoming X-Request-Id is kept, a bad one replaced" {
   call GET "$MAIN_URL/healthz" -H 'X-Request-Id: build-42.step:7'
   [ "$(header X-Request-Id)" = build-42.step:7 ]
