@@ -1293,6 +1293,13 @@ std::string write_answer(const Asset& asset, const ParametrizeResult& result, Fo
   return asset.write(result.map, extras_for(result, asset), format);
 }
 
+std::string write_answer(const ParametrizeResult& result, Format format) {
+  RawMesh originals;
+  const std::size_t n0 = result.map.vertices.size() - std::min(result.map.vertices.size(), result.map.inserted.size());
+  originals.vertices.assign(result.map.vertices.begin(), result.map.vertices.begin() + static_cast<long>(n0));
+  return write_answer(Asset::from_mesh(originals), result, format);
+}
+
 // ---- requests -----------------------------------------------------------------------------------------
 
 namespace {

@@ -166,6 +166,9 @@ private:
 nlohmann::json extras_for(const ParametrizeResult& result, const Asset& asset);
 // asset.write(result.map, extras_for(result, asset), format).
 std::string write_answer(const Asset& asset, const ParametrizeResult& result, Format format);
+// The same into a fresh one-mesh document (Asset::from_mesh of the result's original vertices): for a
+// request that did not come as glTF.
+std::string write_answer(const ParametrizeResult& result, Format format);
 
 // ---- requests (HTTP bodies and the CLI) ------------------------------------------------------------------
 // The parameters that come beside the model: query parameters mesh, primitive, weld, boundary (HTTP), or

@@ -85,6 +85,16 @@ public:
   // The SVG preview, rendered once on first request and kept with the result.
   void set_preview(std::shared_ptr<const std::string> svg);
   std::shared_ptr<const std::string> preview() const;
+  // What the request came with besides the parametrize body (a glTF request's gltf::Asset), kept to answer
+  // GET .../result in glTF; opaque here.
+  void set_attachment(std::shared_ptr<const void> attachment) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    attachment_ = std::move(attachment);
+  }
+  std::shared_ptr<const void> attachment() const {
+    std::lock_guard<std::mutex> lock(mutex_);
+    return attachment_;
+  }
 
 private:
   const std::string id_;
@@ -100,6 +110,7 @@ private:
   std::shared_ptr<const std::string> result_json_;
   std::shared_ptr<const ParametrizeResult> result_;
   std::shared_ptr<const std::string> preview_;
+  std::shared_ptr<const void> attachment_;
 };
 
 class JobStore {
