@@ -951,7 +951,7 @@ struct HttpServer::Impl {
     http.set_payload_max_length(config.max_body_bytes);
     http.set_keep_alive_timeout(config.keep_alive_seconds);
     http.set_keep_alive_max_count(1000);
-    http.set_read_timeout(30, 0);
+    http.set_read_timeout(10, 0);  // per read: a slow upload is fine, a stalled one ends
     http.set_write_timeout(30, 0);
     http.set_tcp_nodelay(true);
     // cpp-httplib's default also sets SO_REUSEPORT, which lets a second service bind the same port and
