@@ -423,13 +423,17 @@ struct HttpServer::Impl {
   }
 
   // ---- logging ----
-  void event(spdlog::level::level_enum level, ordered_json fields) {
-    if (!log || !log->should_log(level)) return;
+  // lifecycle: listening, signal, draining, stopped. Written at every log level but off (an operator, or a
+  // test that started the service on port 0, needs the listening line even at --log-level warn).
+  void event(spdlog::level::level_enum level, ordered_json fields, bool lifecycle = false) {
+    if (!log) return;
+    if (lifecycle ? log->level() == spdlog::level::off : !log->should_log(level)) return;
     ordered_json line;
     line["ts"] = iso8601(std::chrono::system_clock::now());
     line["level"] = spdlog::level::to_string_view(level).data();
     for (auto& [k, v] : fields.items()) line[k] = std::move(v);
-    log->log(level, "{}", line.dump(-1, ' ', false, ordered_json::error_handler_t::replace));
+    log->log(lifecycle ? spdlog::level::critical : level, "{}",
+             line.dump(-1, ' ', false, ordered_json::error_handler_t::replace));
   }
 
   // ---- answering ----
@@ -1181,7 +1185,7 @@ void HttpServer::start() {
                                 {"max_results", s.config.max_results},
                                 {"grace_seconds", s.config.grace_seconds},
                                 {"remapping_engine", LIPMAP_HAVE_PIPELINE ? true : false},
-                                {"test_hooks", s.config.test_hooks}});
+                                {"test_hooks", s.config.test_hooks}}, true);
   if (s.config.test_hooks)
     s.event(spdlog::level::warn, {{"event", "test_hooks_enabled"},
                                   {"detail", "X-Lipmap-Test-* headers are honoured: never run like this in production"}});
@@ -1191,7 +1195,7 @@ bool HttpServer::draining() const { return impl_->draining; }
 
 void HttpServer::log_signal(const std::string& name, bool second) {
   impl_->event(spdlog::level::info,
-               {{"event", "signal"}, {"signal", name}, {"action", second ? "cancel_all" : "drain"}});
+               {{"event", "signal"}, {"signal", name}, {"action", second ? "cancel_all" : "drain"}}, true);
 }
 
 void HttpServer::cancel_all() { impl_->cancel_everything(CancelReason::shutdown); }
@@ -1210,7 +1214,7 @@ bool HttpServer::shutdown() {
   s.event(spdlog::level::info, {{"event", "draining"},
                                 {"grace_seconds", s.config.grace_seconds},
                                 {"queued", s.pool.queue_depth()},
-                                {"running", s.pool.busy()}});
+                                {"running", s.pool.busy()}}, true);
   // 1. No new connections. Requests already being read still run (and are refused new work with 503).
   if (s.started) s.http.stop();
   // 2. Asynchronous jobs: once the listener is closed nobody can fetch their results, so they end now.
@@ -1242,7 +1246,7 @@ bool HttpServer::shutdown() {
   if (s.housekeeper.joinable()) s.housekeeper.join();
   if (idle) s.pool.join();
   s.clean = idle;
-  s.event(spdlog::level::info, {{"event", "stopped"}, {"ms", std::round(ms_since(t0))}, {"clean", idle}});
+  s.event(spdlog::level::info, {{"event", "stopped"}, {"ms", std::round(ms_since(t0))}, {"clean", idle}}, true);
   return idle;
 }
 

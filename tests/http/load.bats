@@ -15,7 +15,7 @@ setup_file() {
 teardown() {
   check_recorded_answers
   # servers a test started and did not stop (a failed assertion): stop them
-  for name in QUEUE DEADLINE LOAD CANCEL TTL COUNT TERM GRACE; do
+  for name in QUEUE DEADLINE LOAD CANCEL TTL COUNT TERM GRACE ENVS; do
     pid_var="${name}_PID"
     if [ -n "${!pid_var:-}" ] && kill -0 "${!pid_var}" 2>/dev/null; then stop_server "$name" || true; fi
   done
@@ -247,4 +247,22 @@ slow_job() {
   [ "$stop_status" = 0 ]
   elapsed_ms=$(( ($(date +%s%N) - start) / 1000000 ))
   [ "$elapsed_ms" -lt 10000 ] || { echo "shutdown took $elapsed_ms ms" >&2; return 1; }
+}
+
+@test "every setting from the environment (LIPMAP_*), and SIGINT drains like SIGTERM (exit 0)" {
+  LIPMAP_WORKERS=1 LIPMAP_QUEUE=3 LIPMAP_MAX_BODY_BYTES=5000 LIPMAP_MAX_VERTICES=40 LIPMAP_DEADLINE=0.3 \
+    LIPMAP_TEST_HOOKS=1 LIPMAP_LOG_LEVEL=warn start_server ENVS
+  call GET "$ENVS_URL/metrics"
+  grep -qE '^lipmap_workers 1$' "$answer"
+  grep -qE '^lipmap_queue_capacity 3$' "$answer"
+  call POST "$ENVS_URL/v1/parametrize" --json "@$(make_body grid12_square grid 12 square)"
+  expect 413 payload_too_large
+  call POST "$ENVS_URL/v1/parametrize" --json "@$(make_body grid7_square grid 7 square)"
+  expect 422 mesh_too_large
+  call POST "$ENVS_URL/v1/polygons/classify" -H 'X-Lipmap-Test-Delay-Ms: 3000' --json '{"polygon": [[0,0],[1,0],[1,1]]}'
+  expect 504 deadline_exceeded
+  # warn level: no per-request info lines
+  ! grep -q '"event":"request","request_id".*"status":200' "$BATS_FILE_TMPDIR/ENVS.log"
+  stop_server ENVS INT
+  [ "$stop_status" = 0 ]
 }

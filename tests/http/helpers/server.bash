@@ -36,13 +36,14 @@ start_server() {
   export "${name}_URL" "${name}_PID"
 }
 
-# stop_server NAME: SIGTERM and wait (at most 30 s) for the exit; the exit status is in $stop_status.
+# stop_server NAME [SIGNAL]: SIGTERM (or SIGNAL) and wait (at most 30 s) for the exit; the exit status is
+# in $stop_status.
 stop_server() {
   local pid_var="${1}_PID"
   local pid="${!pid_var:-}"
   stop_status=""
   [ -n "$pid" ] || return 0
-  kill -TERM "$pid" 2>/dev/null || true
+  kill -"${2:-TERM}" "$pid" 2>/dev/null || true
   local i
   for i in $(seq 300); do
     kill -0 "$pid" 2>/dev/null || break
