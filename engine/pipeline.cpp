@@ -104,8 +104,8 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
   });
 
   out.map = run_stage(Stage::refine, time.refine, cancel, progress, [&] {
-    return refine(input.mesh, input.boundary.loop, disk.source.uv, target, disk.target.uv, composition,
-                  options.refine, cancel);
+    return refine(input.mesh, input.boundary.loop, out.classification.rotation_indices, disk.source.uv, target,
+                  disk.target.uv, composition, options.refine, cancel);
   });
   out.flipped = count_non_positive(out.map.uv, out.map.faces);
 

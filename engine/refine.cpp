@@ -3,7 +3,9 @@
 // A source face with inserted points on its edges is a "refined polygon"; its image polygon runs through
 // f at the corners and at the inserted points. A polygon is usable when its image has a triangulation with
 // positive triangles whose angles are the polygon's own interior angles (self-overlapping, all R_i = 0) and
-// in which no triangle has all three corners on one original edge (it would be flat in 3D). The same
+// in which no triangle has all three corners on one original edge (it would be flat in 3D). The one
+// exception: at a corner that is a singular boundary vertex of a weakly self-overlapping target, the face
+// may wrap around it (R > 0 there, at most the classification's R). The same
 // test drives the refinement loop, the simplification rounds and the final compatible triangulation, so
 // every decision is made on the doubles that are returned, with exact predicates.
 #include "engine/refine.h"
@@ -16,6 +18,7 @@
 
 #include "engine/detail/disk_walk.h"
 #include "engine/detail/plane_angles.h"
+#include "engine/detail/polygon_turns.h"
 #include "engine/detail/shor_van_wyk.h"
 
 namespace lipmap {
@@ -39,19 +42,24 @@ struct PolyVertex {
   int vertex = -1, edge = -1, index = -1;
   Point2 uv;
   unsigned edges = 0;  // bit i: lies on the face's edge i (corner i to corner i + 1)
+  int singular = 0;    // the classification's R at a corner that is a boundary vertex, else 0
   bool same(const PolyVertex& o) const { return vertex == o.vertex && edge == o.edge && index == o.index; }
 };
 
 class Refiner {
 public:
-  Refiner(const DiskMesh& source, const std::vector<int>& loop, const std::vector<Point2>& source_disk,
-          const TargetMesh& target, const std::vector<Point2>& target_disk, const Composition& composition,
-          const CancelToken* cancel)
+  Refiner(const DiskMesh& source, const std::vector<int>& loop, const std::vector<int>& rotation,
+          const std::vector<Point2>& source_disk, const TargetMesh& target, const std::vector<Point2>& target_disk,
+          const Composition& composition, const CancelToken* cancel)
       : source_(source), faces_(source.faces), source_disk_(source_disk), uv_(composition.uv),
         walk_(target_disk, target.vertices, target.faces), cancel_(cancel) {
     const int nv = static_cast<int>(source.vertices.size());
     start_face_ = composition.target_face;
-    for (int k = 0; k < static_cast<int>(loop.size()); ++k) start_face_[loop[k]] = walk_.face_at_vertex(k);
+    singular_.assign(nv, 0);
+    for (int k = 0; k < static_cast<int>(loop.size()); ++k) {
+      start_face_[loop[k]] = walk_.face_at_vertex(k);
+      singular_[loop[k]] = rotation[k];
+    }
     build_edges(nv);
   }
 
@@ -118,7 +126,7 @@ private:
     std::vector<PolyVertex> poly;
     for (int i = 0; i < 3; ++i) {
       const int c = faces_[f][i];
-      poly.push_back({c, -1, -1, uv_[c], (1u << i) | (1u << ((i + 2) % 3))});
+      poly.push_back({c, -1, -1, uv_[c], (1u << i) | (1u << ((i + 2) % 3)), singular_[c]});
       const int e = face_edges_[f][i];
       const std::vector<EdgePoint>& pts = points_[e];
       const bool ascending = edge_vertices_[e][0] == c;
@@ -130,14 +138,43 @@ private:
     return poly;
   }
 
-  static std::optional<std::vector<Triangle>> triangulate(const std::vector<PolyVertex>& poly) {
+  static std::vector<Pt> points_of(const std::vector<PolyVertex>& poly) {
     std::vector<Pt> pts;
     pts.reserve(poly.size());
     for (const PolyVertex& v : poly) pts.emplace_back(v.uv.x, v.uv.y);
+    return pts;
+  }
+
+  // The turning number t of the image says how many extra turns (t - 1) the triangulation must take; they
+  // can only sit at singular corners, within each one's R. Every split of them is tried (a face has at
+  // most three corners, so there are few).
+  static std::optional<std::vector<Triangle>> triangulate(const std::vector<PolyVertex>& poly) {
+    const std::vector<Pt> pts = points_of(poly);
     const detail::AllowedTriangle not_flat = [&](int i, int k, int j) {
       return (poly[i].edges & poly[k].edges & poly[j].edges) == 0;
     };
-    return detail::triangulate_self_overlapping(pts, &not_flat);
+    const int extra = detail::turning_number(pts) - 1;
+    if (extra == 0) return detail::triangulate_self_overlapping(pts, &not_flat);
+    if (extra < 0) return std::nullopt;
+    std::vector<int> corners;
+    for (int k = 0; k < static_cast<int>(poly.size()); ++k)
+      if (poly[k].singular > 0) corners.push_back(k);
+    std::vector<int> rotation(poly.size(), 0);
+    std::optional<std::vector<Triangle>> found;
+    auto spread = [&](auto&& self, std::size_t c, int left) -> void {
+      if (found) return;
+      if (c == corners.size()) {
+        if (left == 0) found = detail::triangulate_with_rotation(pts, rotation, &not_flat);
+        return;
+      }
+      for (int r = std::min(left, poly[corners[c]].singular); r >= 0; --r) {
+        rotation[corners[c]] = r;
+        self(self, c + 1, left - r);
+      }
+      rotation[corners[c]] = 0;
+    };
+    spread(spread, 0, extra);
+    return found;
   }
 
   bool usable(int f) const { return triangulate(polygon(f)).has_value(); }
@@ -194,6 +231,7 @@ private:
     point_base_[e] = point_count_;
     for (const detail::Crossing& c : walk_.crossings(pt(source_disk_[a]), pt(source_disk_[b]), start_face_[a]))
       points_[e].push_back({c.t, c.uv, false});
+    drop_repeated_images(e);
     point_count_ += static_cast<long long>(points_[e].size());
   }
 
@@ -264,6 +302,10 @@ private:
     return rounds;
   }
 
+  bool same_turning(const std::vector<PolyVertex>& before, int f) const {
+    return detail::turning_number(points_of(before)) == detail::turning_number(points_of(polygon(f)));
+  }
+
   // Often an edge needs none of its points: one test for all of them before the point-by-point rounds.
   // The wedges at the edge's two ends are checked as for a single point, the first and last remaining
   // points standing for the rays that disappear.
@@ -281,7 +323,7 @@ private:
     const bool wedges = wedge_kept(before1, before2, va, first, vb) && wedge_kept(before1, before2, vb, last, va);
     if (!wedges) return false;
     for (int i : kept) points_[e][i].removed = true;
-    if (usable(f1) && usable(f2)) return true;
+    if (same_turning(before1, f1) && same_turning(before2, f2) && usable(f1) && usable(f2)) return true;
     for (int i : kept) points_[e][i].removed = false;
     return false;
   }
@@ -292,7 +334,8 @@ private:
     const int f1 = edge_faces_[e][0], f2 = edge_faces_[e][1];
     const std::vector<PolyVertex> before1 = polygon(f1), before2 = polygon(f2);
     points_[e][i].removed = true;
-    const bool ok = usable(f1) && usable(f2) && wedges_kept(before1, before2, e, i);
+    const bool ok = same_turning(before1, f1) && same_turning(before2, f2) && usable(f1) && usable(f2) &&
+                    wedges_kept(before1, before2, e, i);
     points_[e][i].removed = false;
     return ok;
   }
@@ -340,6 +383,7 @@ private:
   void triangulate_all() {
     const int nf = static_cast<int>(faces_.size());
     triangles_.assign(nf, {});
+    subdivisions_.assign(nf, 0);
     std::vector<int> work(nf);
     for (int f = 0; f < nf; ++f) work[f] = nf - 1 - f;
     std::vector<char> queued(nf, 1);
@@ -361,21 +405,71 @@ private:
         for (const Triangle& t : *tri) triangles_[f].push_back({key(poly[t[0]]), key(poly[t[1]]), key(poly[t[2]])});
         continue;
       }
-      if (fully_refined(f)) {
+      if (fully_refined(f) && subdivisions_[f] >= kMaxSubdivisions) {
         failed_faces_.push_back(f);
         triangles_[f].clear();
         continue;
       }
+      const bool subdivide = fully_refined(f);
+      if (subdivide) ++subdivisions_[f];
       for (int i = 0; i < 3; ++i) {
         const int e = face_edges_[f][i];
         if (!edge_done_[e]) insert_crossings(e);
         for (EdgePoint& p : points_[e]) p.removed = false;
+        if (subdivide) subdivide_edge(e);
         const int g = across(f, i);
         if (g >= 0 && !queued[g]) { queued[g] = 1; work.push_back(g); }
       }
       queued[f] = 1;
       work.push_back(f);
     }
+  }
+
+  // A point whose image equals the image of the point before it along the edge (or of the edge's far end)
+  // adds nothing to the image polygon but a zero-length side, which no triangulation has. It happens when a
+  // source vertex lands exactly on, or within rounding of, a target vertex: the walk then crosses that
+  // vertex at t ~ 0 and the barycentric image of the source vertex rounds to the same point.
+  void drop_repeated_images(int e) {
+    const auto [a, b] = edge_vertices_[e];
+    std::vector<EdgePoint> kept;
+    Point2 previous = uv_[a];
+    for (const EdgePoint& p : points_[e]) {
+      if (p.uv == previous) continue;
+      kept.push_back(p);
+      previous = p.uv;
+    }
+    while (!kept.empty() && kept.back().uv == uv_[b]) kept.pop_back();
+    points_[e] = std::move(kept);
+  }
+
+  // Fallback when even every crossing leaves a face without a valid triangulation (paper Fig. 12 can fail
+  // when the face's image is a bent channel between two edge chains and its third edge is on the boundary,
+  // where no point may go): halve every segment of the face's interior edges. Between two crossings the
+  // edge lies in one target face, where f is affine, so the new points sit on the image's straight sides
+  // and give the triangulation more vertices to connect across. Inserted points stay on original edges.
+  void subdivide_edge(int e) {
+    if (edge_faces_[e][1] < 0) return;  // never on the boundary
+    const auto [a, b] = edge_vertices_[e];
+    const Point2 &A = source_disk_[a], &B = source_disk_[b];
+    std::vector<EdgePoint> finer;
+    double last = 0;
+    auto add_midpoint = [&](double t0, double t1) {
+      const double t = 0.5 * (t0 + t1);
+      if (!(t > t0 && t < t1)) return;  // the segment is too short to halve in double
+      const Pt q(A.x + t * (B.x - A.x), A.y + t * (B.y - A.y));
+      const int face = walk_.locate(q, start_face_[a]);
+      finer.push_back({t, walk_.target_point(q, face), false});
+    };
+    for (const EdgePoint& p : points_[e]) {
+      add_midpoint(last, p.t);
+      finer.push_back(p);
+      last = p.t;
+    }
+    add_midpoint(last, 1);
+    points_[e] = std::move(finer);
+    drop_repeated_images(e);
+    point_base_[e] = point_count_;  // fresh keys: the two faces of e are triangulated again anyway
+    point_count_ += static_cast<long long>(points_[e].size());
   }
 
   // Vertex keys before numbering: original vertex v is v; point k of edge e is -1 - (point_base_[e] + k).
@@ -429,6 +523,7 @@ private:
   detail::DiskWalk walk_;
   const CancelToken* cancel_;
   std::vector<int> start_face_;
+  std::vector<int> singular_;  // per source vertex: the classification's R at boundary vertices, else 0
 
   std::vector<std::array<int, 3>> face_edges_;
   std::vector<std::array<int, 2>> edge_vertices_, edge_faces_;
@@ -437,16 +532,19 @@ private:
 
   std::vector<std::vector<std::array<long long, 3>>> triangles_;
   std::vector<int> failed_faces_;
+  std::vector<int> subdivisions_;  // per face: how often the fallback halved its edges
+  static constexpr int kMaxSubdivisions = 6;
   std::vector<long long> point_base_;
   long long point_count_ = 0;
 };
 
 }  // namespace
 
-RefinedMap refine(const DiskMesh& source, const std::vector<int>& loop, const std::vector<Point2>& source_disk,
-                  const TargetMesh& target, const std::vector<Point2>& target_disk, const Composition& composition,
-                  bool refine, const CancelToken* cancel) {
-  Refiner refiner(source, loop, source_disk, target, target_disk, composition, cancel);
+RefinedMap refine(const DiskMesh& source, const std::vector<int>& loop, const std::vector<int>& rotation,
+                  const std::vector<Point2>& source_disk, const TargetMesh& target,
+                  const std::vector<Point2>& target_disk, const Composition& composition, bool refine,
+                  const CancelToken* cancel) {
+  Refiner refiner(source, loop, rotation, source_disk, target, target_disk, composition, cancel);
   return refiner.run(refine);
 }
 

@@ -37,8 +37,11 @@ struct RefinedMap {
 };
 
 // With refine = false only the vertex-wise map is returned (faces as in the source, possibly flipped).
-RefinedMap refine(const DiskMesh& source, const std::vector<int>& loop, const std::vector<Point2>& source_disk,
-                  const TargetMesh& target, const std::vector<Point2>& target_disk, const Composition& composition,
-                  bool refine, const CancelToken* cancel = nullptr);
+// rotation[k]: the classification's full rotation index at boundary vertex loop[k]; a face's image may wrap
+// around such a singular vertex by up to that many extra turns (weakly self-overlapping targets).
+RefinedMap refine(const DiskMesh& source, const std::vector<int>& loop, const std::vector<int>& rotation,
+                  const std::vector<Point2>& source_disk, const TargetMesh& target,
+                  const std::vector<Point2>& target_disk, const Composition& composition, bool refine,
+                  const CancelToken* cancel = nullptr);
 
 }  // namespace lipmap

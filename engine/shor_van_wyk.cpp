@@ -267,7 +267,15 @@ std::optional<std::vector<Triangle>> triangulate_self_overlapping(const std::vec
     return std::vector<Triangle>{{0, 1, 2}};
   }
   if (turning_number(polygon) != 1) return std::nullopt;  // sum R_i = t - 1 must be 0
-  const std::vector<int> turns = spike_turns(polygon);
+  return triangulate_with_rotation(polygon, std::vector<int>(polygon.size(), 0), allowed);
+}
+
+std::optional<std::vector<Triangle>> triangulate_with_rotation(const std::vector<Pt>& polygon,
+                                                               const std::vector<int>& rotation,
+                                                               const AllowedTriangle* allowed) {
+  if (polygon.size() < 3) return std::nullopt;
+  std::vector<int> turns = spike_turns(polygon);
+  for (std::size_t k = 0; k < turns.size(); ++k) turns[k] += rotation[k];
   // Fast path: clip safe ears first (App. C), then the table on what is left. Every ear found is a valid
   // triangle of the answer, so a success is final; a failure is re-decided by the table on the whole
   // polygon, since with forbidden triangles an ear clipped early could in principle be the wrong choice.

@@ -37,4 +37,9 @@ ShorVanWykResult shor_van_wyk(const std::vector<Pt>& polygon, const std::vector<
 std::optional<std::vector<Triangle>> triangulate_self_overlapping(const std::vector<Pt>& polygon,
                                                                   const AllowedTriangle* allowed = nullptr);
 
+// The same with prescribed full rotation indices R_k >= 0 (sum R_k must equal the turning number - 1).
+std::optional<std::vector<Triangle>> triangulate_with_rotation(const std::vector<Pt>& polygon,
+                                                               const std::vector<int>& rotation,
+                                                               const AllowedTriangle* allowed = nullptr);
+
 }  // namespace lipmap::detail
