@@ -111,13 +111,17 @@ declare -A rate
 for w in 1 2; do
   start_server "$w"
   curl -sS -o /dev/null --json "@$work/small.json" "$url/v1/parametrize"  # warm-up
+  cpu0="$(awk '{print $14 + $15}' "/proc/$server/stat")"
   wrk -t1 -c"$connections" -d"$duration" --latency -s "$work/post.lua" "$url/v1/parametrize" >"$work/wrk.$w"
+  cpu1="$(awk '{print $14 + $15}' "/proc/$server/stat")"
+  cpu_s="$(echo "scale=2; ($cpu1 - $cpu0) / $(getconf CLK_TCK)" | bc)"
   stop_server
   if grep -q 'Non-2xx' "$work/wrk.$w"; then echo "bench_http: non-2xx answers with $w workers:" >&2; cat "$work/wrk.$w" >&2; exit 1; fi
   rate[$w]="$(awk '/Requests\/sec/ {print $2}' "$work/wrk.$w")"
   p50="$(awk '/ 50%/ {print $2}' "$work/wrk.$w")"
   p99="$(awk '/ 99%/ {print $2}' "$work/wrk.$w")"
-  echo "small jobs ($((2 * (small - 1) * (small - 1))) triangles), $w worker(s), $connections connections, $duration: ${rate[$w]} jobs/s (latency p50 $p50, p99 $p99)"
+  jobs_done="$(awk '/requests in/ {print $1}' "$work/wrk.$w")"
+  echo "small jobs ($((2 * (small - 1) * (small - 1))) triangles), $w worker(s), $connections connections, $duration: ${rate[$w]} jobs/s (latency p50 $p50, p99 $p99); the service used $cpu_s CPU-s for $jobs_done jobs: $(echo "scale=1; $jobs_done / $cpu_s" | bc) jobs per CPU-second"
 done
 printf 'scaling 2 workers / 1 worker: %.2fx\n' "$(echo "${rate[2]} / ${rate[1]}" | bc -l)"
 echo "load average after: $(cut -d' ' -f1-3 /proc/loadavg) (other processes on the machine take cores from the workers: compare with nproc)"
