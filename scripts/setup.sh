@@ -12,7 +12,7 @@ build_packages=(
   libtbb-dev libspdlog-dev libcli11-dev
 )
 test_packages=(googletest libgtest-dev libgmock-dev bats curl jq)
-bench_packages=(curl jq wrk)  # bench/bench_http.sh: an HTTP load generator on loopback
+bench_packages=(curl jq wrk bc iproute2)  # bench/bench_http.sh: wrk on loopback; bc, ss for its figures
 
 want=("${build_packages[@]}")
 for arg in "$@"; do
