@@ -12,9 +12,9 @@ Composition compose(const DiskMesh& source, const std::vector<int>& loop, const 
                     const TargetMesh& target, const std::vector<Point2>& target_disk, const CancelToken* cancel) {
   const auto t0 = std::chrono::steady_clock::now();
   const int n = static_cast<int>(source.vertices.size());
-  const detail::DiskWalk walk(target_disk, target.vertices, target.faces);
-
   Composition out;
+  out.walk = std::make_shared<const detail::DiskWalk>(target_disk, target.vertices, target.faces);
+  const detail::DiskWalk& walk = *out.walk;
   out.uv.assign(n, Point2{});
   out.target_face.assign(n, -1);
   std::vector<int> boundary_index(n, -1);

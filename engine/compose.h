@@ -4,6 +4,7 @@
 // barycentric combination of the M_t triangle's corners. Boundary vertex k gets P's vertex k bit for bit.
 #pragma once
 
+#include <memory>
 #include <vector>
 
 #include "engine/cancel.h"
@@ -13,11 +14,16 @@
 
 namespace lipmap {
 
+namespace detail {
+class DiskWalk;  // h_t(M_t) with adjacency, built once by compose and reused by refine
+}
+
 struct Composition {
   std::vector<Point2> uv;          // f at every source vertex (the uv of the unrefined map)
   std::vector<int> target_face;    // M_t face whose image contains h_s(v); -1 for boundary vertices
   int walk_steps = 0;              // faces visited by all walks together
   double ms = 0;
+  std::shared_ptr<const detail::DiskWalk> walk;
 };
 
 // source_disk: h_s (one point per source vertex); target_disk: h_t (one per M_t vertex). Boundary vertex

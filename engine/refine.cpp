@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdint>
+#include <memory>
 #include <optional>
 #include <unordered_map>
 
@@ -52,7 +53,9 @@ public:
           const std::vector<Point2>& source_disk, const TargetMesh& target, const std::vector<Point2>& target_disk,
           const Composition& composition, const CancelToken* cancel)
       : source_(source), faces_(source.faces), source_disk_(source_disk), uv_(composition.uv),
-        walk_(target_disk, target.vertices, target.faces), cancel_(cancel) {
+        walk_owned_(composition.walk ? composition.walk
+                                     : std::make_shared<const detail::DiskWalk>(target_disk, target.vertices, target.faces)),
+        walk_(*walk_owned_), cancel_(cancel) {
     const int nv = static_cast<int>(source.vertices.size());
     start_face_ = composition.target_face;
     singular_.assign(nv, 0);
@@ -257,6 +260,13 @@ private:
     }
   }
 
+  bool has_points(int f) const {
+    for (int i = 0; i < 3; ++i)
+      for (const EdgePoint& p : points_[face_edges_[f][i]])
+        if (!p.removed) return true;
+    return false;
+  }
+
   bool fully_refined(int f) const {
     for (int i = 0; i < 3; ++i) {
       const int e = face_edges_[f][i];
@@ -393,6 +403,13 @@ private:
       const int f = work.back();
       work.pop_back();
       queued[f] = 0;
+      if (!has_points(f)) {  // the common case: the source triangle itself, when its image is positive
+        const Triangle& t = faces_[f];
+        if (detail::orient(pt(uv_[t[0]]), pt(uv_[t[1]]), pt(uv_[t[2]])) > 0) {
+          triangles_[f].assign(1, {t[0], t[1], t[2]});
+          continue;
+        }
+      }
       const std::vector<PolyVertex> poly = polygon(f);
       std::optional<std::vector<Triangle>> tri;
       if (poly.size() == 3) {
@@ -520,7 +537,8 @@ private:
   const std::vector<Triangle>& faces_;
   const std::vector<Point2>& source_disk_;
   std::vector<Point2> uv_;
-  detail::DiskWalk walk_;
+  std::shared_ptr<const detail::DiskWalk> walk_owned_;
+  const detail::DiskWalk& walk_;
   const CancelToken* cancel_;
   std::vector<int> start_face_;
   std::vector<int> singular_;  // per source vertex: the classification's R at boundary vertices, else 0
