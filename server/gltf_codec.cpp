@@ -1027,6 +1027,80 @@ void blend_skin(const std::vector<double>& ja, const std::vector<double>& wa, co
   }
 }
 
+bool face_valid(const Triangle& t, const std::vector<Point2>& stored, const std::vector<Point2>& back) {
+  return orientation_sign(stored[t[0]], stored[t[1]], stored[t[2]]) == -1 &&
+         orientation_sign(back[t[0]], back[t[1]], back[t[2]]) == 1;
+}
+
+// See Asset::write. Returns the number of vertices moved.
+std::size_t repair_float32_rounding(const std::vector<Triangle>& faces, std::vector<Point2>& stored, std::vector<Point2>& back) {
+  std::vector<int> bad;
+  for (std::size_t f = 0; f < faces.size(); ++f)
+    if (!face_valid(faces[f], stored, back)) bad.push_back(static_cast<int>(f));
+  if (bad.empty()) return 0;
+  const std::size_t nv = stored.size();
+  std::vector<std::vector<int>> faces_of(nv);
+  std::unordered_map<std::uint64_t, int> edge_count;
+  auto key = [](int a, int b) {
+    if (a > b) std::swap(a, b);
+    return static_cast<std::uint64_t>(static_cast<std::uint32_t>(a)) << 32 | static_cast<std::uint32_t>(b);
+  };
+  for (std::size_t f = 0; f < faces.size(); ++f)
+    for (int c = 0; c < 3; ++c) {
+      faces_of[faces[f][c]].push_back(static_cast<int>(f));
+      ++edge_count[key(faces[f][c], faces[f][(c + 1) % 3])];
+    }
+  std::vector<char> boundary(nv, 0);
+  for (const auto& [k, n] : edge_count)
+    if (n == 1) boundary[k >> 32] = boundary[k & 0xffffffffu] = 1;
+  std::vector<char> moved(nv, 0);
+  auto step = [](float x, int n) {
+    for (; n > 0; --n) x = std::nextafter(x, std::numeric_limits<float>::infinity());
+    for (; n < 0; ++n) x = std::nextafter(x, -std::numeric_limits<float>::infinity());
+    return x;
+  };
+  // Smallest moves first: one coordinate by one ulp, then both, then two ulps.
+  std::vector<std::pair<int, int>> offsets;
+  for (int ds = -2; ds <= 2; ++ds)
+    for (int dt = -2; dt <= 2; ++dt)
+      if (ds || dt) offsets.push_back({ds, dt});
+  std::stable_sort(offsets.begin(), offsets.end(), [](const auto& x, const auto& y) {
+    const auto cost = [](const std::pair<int, int>& o) {
+      return std::max(std::abs(o.first), std::abs(o.second)) * 10 + std::abs(o.first) + std::abs(o.second);
+    };
+    return cost(x) < cost(y);
+  });
+  for (int round = 0; round < 4 && !bad.empty(); ++round) {
+    for (int f : bad) {
+      if (face_valid(faces[f], stored, back)) continue;
+      for (int v : faces[f]) {
+        if (boundary[v]) continue;
+        const Point2 s0 = stored[v], b0 = back[v];
+        bool fixed = false;
+        for (const auto& [ds, dt] : offsets) {
+          const float s = step(static_cast<float>(s0.x), ds), t = step(static_cast<float>(s0.y), dt);
+          stored[v] = {s, t};
+          back[v] = {s, 1.0 - static_cast<double>(t)};
+          fixed = std::all_of(faces_of[v].begin(), faces_of[v].end(),
+                              [&](int g) { return face_valid(faces[g], stored, back); });
+          if (fixed) break;
+        }
+        if (fixed) {
+          moved[v] = 1;
+          break;
+        }
+        stored[v] = s0;
+        back[v] = b0;
+      }
+    }
+    std::vector<int> still;
+    for (int f : bad)
+      if (!face_valid(faces[f], stored, back)) still.push_back(f);
+    bad.swap(still);
+  }
+  return static_cast<std::size_t>(std::count(moved.begin(), moved.end(), 1));
+}
+
 }  // namespace
 
 std::string Asset::write(const RefinedMap& map, const nlohmann::json& extras, Format format) const {
@@ -1054,6 +1128,14 @@ std::string Asset::write(const RefinedMap& map, const nlohmann::json& extras, Fo
     st[2 * v + 1] = t;
     stored[v] = {s, t};
     back[v] = {s, 1.0 - static_cast<double>(t)};
+  }
+  // Where rounding to float32 breaks a triangle, its interior corners may move to a neighbouring float (up to
+  // 2 ulps in s and t) when that makes every triangle around them valid again; boundary vertices never move
+  // (they stay the float32 of their targets). Whatever comes out is checked in full below.
+  const std::size_t adjusted = repair_float32_rounding(map.faces, stored, back);
+  for (std::size_t v = 0; v < nv; ++v) {
+    st[2 * v] = stored[v].x;
+    st[2 * v + 1] = stored[v].y;
   }
   for (std::size_t f = 0; f < map.faces.size(); ++f) {
     const Triangle& t = map.faces[f];
@@ -1253,6 +1335,7 @@ std::string Asset::write(const RefinedMap& map, const nlohmann::json& extras, Fo
   json merged = m.extras.is_object() ? m.extras : json::object();
   if (!m.extras.is_null() && !m.extras.is_object()) merged["extras_before_lipmap"] = m.extras;
   merged["lipmap"] = extras;
+  merged["lipmap"]["float32_adjusted_vertices"] = adjusted;
   prim.extras = to_value(merged);
   prim.extras_json_string.clear();
 

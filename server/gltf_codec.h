@@ -12,8 +12,11 @@
 //     Round trip: fl32(1 - (1 - t)) == t for every float t with |t| >= 2^-29 or t == 0.
 //   * float32: the written map is checked as stored: every triangle strictly clockwise in the float (s, t)
 //     AND strictly counterclockwise in (s, 1 - t) evaluated in double, both by CGAL's exact predicate, and
-//     every interior vertex's angles summing to 2 pi. If rounding broke that, write() throws
-//     Float32RoundingError (an InternalError: HTTP 500, CLI exit 3) and writes nothing.
+//     every interior vertex's angles summing to 2 pi; boundary TEXCOORD_0 is exactly the float32 of the
+//     targets. Where plain rounding breaks a triangle, its interior corners may first move to a neighbouring
+//     float (at most 2 ulps in s and t; counted in extras.lipmap.float32_adjusted_vertices) when that makes
+//     every triangle around them valid. If the map still fails, write() throws Float32RoundingError (an
+//     InternalError: HTTP 500, CLI exit 3) and writes nothing.
 //   * seams: glTF splits vertices at seams (hard normals, uv seams). Weld::none (default) maps the primitive's
 //     vertices as they are: a primitive split at seams has several boundary loops (or pieces) and is refused
 //     with the validate stage's code (multiple_boundary_loops, not_connected, ...), with a hint to weld.
