@@ -76,14 +76,21 @@ start_server 1
 curl -sS -o "$work/http.json" --json "@$work/job.json" "$url/v1/parametrize"
 : >"$work/cli.times"
 : >"$work/http.times"
+: >"$work/cli.engine"
+: >"$work/http.engine"
+: >"$work/http.added"
 for i in $(seq "$runs"); do
   t0=$(now_ns)
   "$lipmap" map "$work/job.json" -o "$work/cli.json"
   t1=$(now_ns)
   echo "scale=6; ($t1 - $t0) / 1000000000" | bc >>"$work/cli.times"
+  jq '.diagnostics.timings_ms.total / 1000' "$work/cli.json" >>"$work/cli.engine"
   code="$(curl -sS -o "$work/http.json" -w '%{http_code} %{time_total}' --json "@$work/job.json" "$url/v1/parametrize")"
   [[ "${code%% *}" == 200 ]] || { echo "bench_http: HTTP ${code%% *}: $(head -c 300 "$work/http.json")" >&2; exit 1; }
   echo "${code#* }" >>"$work/http.times"
+  # what HTTP adds to this very call: its wall time minus the engine's own total
+  echo "${code#* } $(jq '.diagnostics.timings_ms.total / 1000' "$work/http.json")" | awk '{print $1 - $2}' >>"$work/http.added"
+  jq '.diagnostics.timings_ms.total / 1000' "$work/http.json" >>"$work/http.engine"
 done
 stop_server
 same="no"
@@ -95,6 +102,11 @@ answer_bytes="$(wc -c <"$work/http.json")"
 ratio="$(echo "scale=4; $http_median / $cli_median" | bc)"
 printf 'same job, %d runs each (median wall time): lipmap map %.3f s, HTTP %.3f s, ratio HTTP/CLI %.3f (%+.1f%%); engine total %.0f ms; answer %d bytes; identical answers: %s\n' \
   "$runs" "$cli_median" "$http_median" "$ratio" "$(echo "($ratio - 1) * 100" | bc -l)" "$engine_ms" "$answer_bytes" "$same"
+http_added="$(median <"$work/http.added")"
+http_engine="$(median <"$work/http.engine")"
+cli_engine="$(median <"$work/cli.engine")"
+printf 'what HTTP adds (wall time of the call minus the engine total in its answer, median): %.3f s on an engine median of %.3f s = %+.1f%%; lipmap map adds %.3f s (process start, file reading and writing) to %.3f s\n' \
+  "$http_added" "$http_engine" "$(echo "100 * $http_added / $http_engine" | bc -l)" "$(echo "$cli_median - $cli_engine" | bc -l)" "$cli_engine"
 echo "  cli:  $(tr '\n' ' ' <"$work/cli.times")"
 echo "  http: $(tr '\n' ' ' <"$work/http.times")"
 
@@ -112,8 +124,13 @@ for w in 1 2; do
   start_server "$w"
   curl -sS -o /dev/null --json "@$work/small.json" "$url/v1/parametrize"  # warm-up
   cpu0="$(awk '{print $14 + $15}' "/proc/$server/stat")"
+  for t in /proc/"$server"/task/*; do echo "${t##*/} $(cat "$t/schedstat")"; done | sort >"$work/sched0"
   wrk -t1 -c"$connections" -d"$duration" --latency -s "$work/post.lua" "$url/v1/parametrize" >"$work/wrk.$w"
+  for t in /proc/"$server"/task/*; do echo "${t##*/} $(cat "$t/schedstat")"; done | sort >"$work/sched1"
   cpu1="$(awk '{print $14 + $15}' "/proc/$server/stat")"
+  # per busy thread (the workers): time on a CPU and time runnable but waiting for one (schedstat, ns)
+  sched="$(join "$work/sched0" "$work/sched1" | awk '{run = ($5 - $2) / 1e9; wait = ($6 - $3) / 1e9;
+    if (run > 0.2) { n++; r += run; q += wait } } END { printf "%d busy threads: %.1f s on a CPU, %.1f s runnable but waiting for one", n, r, q }')"
   cpu_s="$(echo "scale=2; ($cpu1 - $cpu0) / $(getconf CLK_TCK)" | bc)"
   stop_server
   if grep -q 'Non-2xx' "$work/wrk.$w"; then echo "bench_http: non-2xx answers with $w workers:" >&2; cat "$work/wrk.$w" >&2; exit 1; fi
@@ -121,7 +138,8 @@ for w in 1 2; do
   p50="$(awk '/ 50%/ {print $2}' "$work/wrk.$w")"
   p99="$(awk '/ 99%/ {print $2}' "$work/wrk.$w")"
   jobs_done="$(awk '/requests in/ {print $1}' "$work/wrk.$w")"
-  echo "small jobs ($((2 * (small - 1) * (small - 1))) triangles), $w worker(s), $connections connections, $duration: ${rate[$w]} jobs/s (latency p50 $p50, p99 $p99); the service used $cpu_s CPU-s for $jobs_done jobs: $(echo "scale=1; $jobs_done / $cpu_s" | bc) jobs per CPU-second"
+  echo "small jobs ($((2 * (small - 1) * (small - 1))) triangles), $w worker(s), $connections connections, $duration: ${rate[$w]} jobs/s (latency p50 $p50, p99 $p99); the service used $cpu_s CPU-s for $jobs_done jobs: $(echo "scale=1; $jobs_done / $cpu_s" | bc) jobs per CPU-second; $sched"
 done
 printf 'scaling 2 workers / 1 worker: %.2fx\n' "$(echo "${rate[2]} / ${rate[1]}" | bc -l)"
-echo "load average after: $(cut -d' ' -f1-3 /proc/loadavg) (other processes on the machine take cores from the workers: compare with nproc)"
+echo "load average after: $(cut -d' ' -f1-3 /proc/loadavg) (a load above nproc means other processes take cores from the workers:"
+echo "  then the workers' runnable-but-waiting time, not a lock, bounds the scaling)"

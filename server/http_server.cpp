@@ -128,6 +128,9 @@ struct RequestContext {
   std::string id;
   Clock::time_point start{};
   std::string problem_code;  // the code of a problem answer, for the log line
+  // Where the time went (for the log line; negative: not applicable): parsing the body on this thread,
+  // waiting for a worker, the worker's work (engine and answer serialization).
+  double parse_ms = -1, queue_ms = -1, work_ms = -1;
 };
 thread_local RequestContext tl_request;
 
@@ -196,6 +199,7 @@ struct Answer {
   std::shared_ptr<const std::string> shared_body;  // large bodies (results) are shared until written
   std::optional<ordered_json> problem;
   std::vector<std::pair<std::string, std::string>> headers;
+  double queue_ms = -1, work_ms = -1;  // set by run_sync
 };
 
 Answer problem_answer(ordered_json p) {
@@ -538,7 +542,9 @@ struct HttpServer::Impl {
     auto promise = std::make_shared<std::promise<Answer>>();
     std::future<Answer> future = promise->get_future();
     const double deadline_seconds = config.deadline_seconds;
-    auto task = [sync, promise, work = std::move(work), kind, deadline_seconds]() mutable {
+    const auto enqueued = Clock::now();
+    auto task = [sync, promise, work = std::move(work), kind, deadline_seconds, enqueued]() mutable {
+      const auto started = Clock::now();
       Answer a;
       try {
         sync->token.check();  // the deadline may have passed while it waited in the queue
@@ -546,6 +552,8 @@ struct HttpServer::Impl {
       } catch (...) {
         a = problem_answer(current_exception_problem(kind, sync->reason.load(), sync->token, deadline_seconds));
       }
+      a.queue_ms = std::chrono::duration<double, std::milli>(started - enqueued).count();
+      a.work_ms = ms_since(started);
       promise->set_value(std::move(a));
     };
     {
@@ -564,6 +572,8 @@ struct HttpServer::Impl {
     Answer answer;
     if (future.wait_until(hard_limit) == std::future_status::ready) {
       answer = future.get();
+      tl_request.queue_ms = answer.queue_ms;
+      tl_request.work_ms = answer.work_ms;
     } else {
       sync->cancel(CancelReason::none);
       answer = problem_answer(504, "deadline_exceeded",
@@ -599,11 +609,13 @@ struct HttpServer::Impl {
     if (auto a = refuse_when_draining()) return *a;
     if (auto a = require_json(req)) return *a;
     BoundaryPolygon polygon;
+    const auto parse_start = Clock::now();
     try {
       polygon = codec::classify_request_from_json(codec::parse_json(req.body));
     } catch (const InputError& e) {
       return problem_answer(input_problem(e, WorkKind::classify));
     }
+    tl_request.parse_ms = ms_since(parse_start);
     if (polygon.vertices.size() > config.max_polygon_vertices)
       return problem_answer(422, "polygon_too_large",
                             "the polygon has " + std::to_string(polygon.vertices.size()) +
@@ -691,7 +703,9 @@ struct HttpServer::Impl {
 
   Answer handle_parametrize(const httplib::Request& req) {
     std::shared_ptr<const gltf::Asset> asset;
+    const auto parse_start = Clock::now();
     auto parsed = parse_parametrize(req, &asset);
+    tl_request.parse_ms = ms_since(parse_start);
     if (auto* a = std::get_if<Answer>(&parsed)) return std::move(*a);
     auto request = std::get<std::shared_ptr<const codec::ParametrizeRequest>>(std::move(parsed));
     const TestHooks hooks = hooks_of(req);
@@ -1063,6 +1077,10 @@ struct HttpServer::Impl {
                           {"bytes_out", res.body.empty() ? res.content_length_ : res.body.size()},
                           {"remote", req.remote_addr}};
       if (!tl_request.problem_code.empty()) fields["code"] = tl_request.problem_code;
+      auto rounded = [](double v) { return std::round(v * 1000) / 1000; };
+      if (tl_request.parse_ms >= 0) fields["parse_ms"] = rounded(tl_request.parse_ms);
+      if (tl_request.queue_ms >= 0) fields["queue_ms"] = rounded(tl_request.queue_ms);
+      if (tl_request.work_ms >= 0) fields["work_ms"] = rounded(tl_request.work_ms);
       event(level, std::move(fields));
       tl_request = RequestContext{};
     });
