@@ -4,8 +4,8 @@
 
 #include <CGAL/Exact_rational.h>
 
+#include <algorithm>
 #include <cstdint>
-#include <unordered_map>
 
 #include "engine/error.h"
 
@@ -26,14 +26,17 @@ DiskWalk::DiskWalk(const std::vector<Point2>& disk, const std::vector<Point2>& t
   disk_.reserve(disk.size());
   for (const Point2& p : disk) disk_.emplace_back(p.x, p.y);
 
-  std::unordered_map<std::uint64_t, int> directed;  // directed edge -> face
+  // Directed edge -> face, as a sorted list: the face across edge (a, b) is the one that has (b, a).
+  std::vector<std::pair<std::uint64_t, int>> directed;
   directed.reserve(faces.size() * 3);
   for (int f = 0; f < static_cast<int>(faces.size()); ++f)
-    for (int e = 0; e < 3; ++e) directed[edge_key(faces[f][e], faces[f][(e + 1) % 3])] = f;
+    for (int e = 0; e < 3; ++e) directed.push_back({edge_key(faces[f][e], faces[f][(e + 1) % 3]), f});
+  std::sort(directed.begin(), directed.end());
   for (int f = 0; f < static_cast<int>(faces.size()); ++f) {
     for (int e = 0; e < 3; ++e) {
-      auto it = directed.find(edge_key(faces[f][(e + 1) % 3], faces[f][e]));
-      if (it != directed.end()) neighbours_[f][e] = it->second;
+      const std::uint64_t key = edge_key(faces[f][(e + 1) % 3], faces[f][e]);
+      auto it = std::lower_bound(directed.begin(), directed.end(), std::pair<std::uint64_t, int>{key, -1});
+      if (it != directed.end() && it->first == key) neighbours_[f][e] = it->second;
     }
   }
 

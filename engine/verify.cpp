@@ -6,8 +6,6 @@
 #include <cmath>
 #include <cstdint>
 #include <string>
-#include <unordered_map>
-#include <unordered_set>
 
 #include "engine/detail/plane_angles.h"
 
@@ -29,6 +27,21 @@ std::uint64_t pair_key(int a, int b) {
   return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(a)) << 32) | static_cast<std::uint32_t>(b);
 }
 
+// A sorted key list: cheaper than hash sets for the few hundred thousand edges of a large mesh.
+struct SortedKeys {
+  explicit SortedKeys(std::vector<std::uint64_t> k) : keys(std::move(k)) { std::sort(keys.begin(), keys.end()); }
+  bool contains(std::uint64_t key) const { return std::binary_search(keys.begin(), keys.end(), key); }
+  std::vector<std::uint64_t> keys;
+};
+
+SortedKeys undirected_edges(const std::vector<Triangle>& faces) {
+  std::vector<std::uint64_t> keys;
+  keys.reserve(faces.size() * 3);
+  for (const Triangle& t : faces)
+    for (int c = 0; c < 3; ++c) keys.push_back(pair_key(std::min(t[c], t[(c + 1) % 3]), std::max(t[c], t[(c + 1) % 3])));
+  return SortedKeys(std::move(keys));
+}
+
 }  // namespace
 
 VerifyReport verify_map(const DiskMesh& source, const std::vector<int>& loop, const BoundaryPolygon& polygon,
@@ -43,20 +56,20 @@ VerifyReport verify_map(const DiskMesh& source, const std::vector<int>& loop, co
   // 1. original vertices kept; inserted ones on an original interior edge at a + t (b - a).
   for (int v = 0; v < nv_source; ++v)
     if (!(map.vertices[v] == source.vertices[v])) fail("original vertex " + std::to_string(v) + " moved");
-  std::unordered_set<std::uint64_t> source_edges, boundary_edges;
-  for (const Triangle& t : source.faces)
-    for (int c = 0; c < 3; ++c) source_edges.insert(pair_key(std::min(t[c], t[(c + 1) % 3]), std::max(t[c], t[(c + 1) % 3])));
+  const SortedKeys source_edges = undirected_edges(source.faces);
+  std::vector<std::uint64_t> boundary_list;
   const int n = static_cast<int>(loop.size());
   for (int k = 0; k < n; ++k) {
     const int a = loop[k], b = loop[(k + 1) % n];
-    boundary_edges.insert(pair_key(std::min(a, b), std::max(a, b)));
+    boundary_list.push_back(pair_key(std::min(a, b), std::max(a, b)));
   }
+  const SortedKeys boundary_edges(std::move(boundary_list));
   for (std::size_t i = 0; i < map.inserted.size(); ++i) {
     const InsertedVertex& iv = map.inserted[i];
     const std::string name = "inserted vertex " + std::to_string(nv_source + i);
-    if (!(iv.a < iv.b) || iv.a < 0 || iv.b >= nv_source || !source_edges.count(pair_key(iv.a, iv.b)))
+    if (!(iv.a < iv.b) || iv.a < 0 || iv.b >= nv_source || !source_edges.contains(pair_key(iv.a, iv.b)))
       fail(name + " is not on an original edge");
-    if (boundary_edges.count(pair_key(iv.a, iv.b))) fail(name + " is on the boundary");
+    if (boundary_edges.contains(pair_key(iv.a, iv.b))) fail(name + " is on the boundary");
     if (!(iv.t > 0 && iv.t < 1)) fail(name + " has t outside (0, 1)");
     const Point3 &pa = source.vertices[iv.a], &pb = source.vertices[iv.b];
     const Point3 expect{pa.x + iv.t * (pb.x - pa.x), pa.y + iv.t * (pb.y - pa.y), pa.z + iv.t * (pb.z - pa.z)};
@@ -80,10 +93,17 @@ VerifyReport verify_map(const DiskMesh& source, const std::vector<int>& loop, co
     const InsertedVertex& iv = map.inserted[v - nv_source];
     return iv.a == std::min(a, b) && iv.b == std::max(a, b);
   };
-  std::unordered_map<std::uint64_t, int> directed;
-  directed.reserve(map.faces.size() * 3);
+  std::vector<std::uint64_t> directed_list;
+  directed_list.reserve(map.faces.size() * 3);
   double area = 0, source_area = 0;
-  std::vector<std::vector<std::pair<int, int>>> fan(nv);
+  // Corners around each vertex, compressed rows: (next, prev) of v in each of its faces.
+  std::vector<int> fan_begin(nv + 1, 0);
+  for (const Triangle& t : map.faces)
+    for (int v : t)
+      if (v >= 0 && v < nv) ++fan_begin[v + 1];
+  for (int v = 0; v < nv; ++v) fan_begin[v + 1] += fan_begin[v];
+  std::vector<std::pair<int, int>> fan(fan_begin[nv]);
+  std::vector<int> fill(fan_begin.begin(), fan_begin.end() - 1);
   for (std::size_t f = 0; f < map.faces.size(); ++f) {
     const Triangle& t = map.faces[f];
     for (int v : t)
@@ -93,8 +113,8 @@ VerifyReport verify_map(const DiskMesh& source, const std::vector<int>& loop, co
       const int a = t[c], b = t[(c + 1) % 3], o = t[(c + 2) % 3];
       if (on_edge(o, a, b) && (a < nv_source && b < nv_source))
         fail("face " + std::to_string(f) + " has all corners on original edge " + std::to_string(a) + "-" + std::to_string(b));
-      if (++directed[pair_key(a, b)] > 1) fail("directed edge " + std::to_string(a) + "-" + std::to_string(b) + " is used twice");
-      fan[a].push_back({b, o});
+      directed_list.push_back(pair_key(a, b));
+      fan[fill[a]++] = {b, o};
     }
     area += area3(map.vertices[t[0]], map.vertices[t[1]], map.vertices[t[2]]);
   }
@@ -109,10 +129,15 @@ VerifyReport verify_map(const DiskMesh& source, const std::vector<int>& loop, co
              std::to_string(iv.b));
     }
   }
-  for (const auto& [key, uses] : directed) {
+  const SortedKeys directed(std::move(directed_list));
+  for (std::size_t i = 1; i < directed.keys.size(); ++i)
+    if (directed.keys[i] == directed.keys[i - 1])
+      fail("directed edge " + std::to_string(directed.keys[i] >> 32) + "-" + std::to_string(directed.keys[i] & 0xffffffffu) +
+           " is used twice");
+  for (const std::uint64_t key : directed.keys) {
     const int a = static_cast<int>(key >> 32), b = static_cast<int>(key & 0xffffffffu);
-    if (!directed.count(pair_key(b, a))) {  // a boundary edge of the result: must be a source boundary edge
-      if (a >= nv_source || b >= nv_source || !boundary_edges.count(pair_key(std::min(a, b), std::max(a, b))))
+    if (!directed.contains(pair_key(b, a))) {  // a boundary edge of the result: must be a source boundary edge
+      if (a >= nv_source || b >= nv_source || !boundary_edges.contains(pair_key(std::min(a, b), std::max(a, b))))
         fail("edge " + std::to_string(a) + "-" + std::to_string(b) + " is on the result's boundary but not the source's");
     }
   }
@@ -122,9 +147,10 @@ VerifyReport verify_map(const DiskMesh& source, const std::vector<int>& loop, co
 
   // 4. angle sums: one full turn at interior vertices, alpha_k + 2 pi R_k at boundary vertex k.
   for (int v = 0; v < nv; ++v) {
-    auto& corners = fan[v];
-    if (corners.empty()) fail("vertex " + std::to_string(v) + " is used by no face");
-    std::sort(corners.begin(), corners.end());
+    const auto begin = fan.begin() + fan_begin[v], end = fan.begin() + fan_begin[v + 1];
+    if (begin == end) fail("vertex " + std::to_string(v) + " is used by no face");
+    std::sort(begin, end);
+    const std::vector<std::pair<int, int>> corners(begin, end);
     const int k = boundary_index[v];
     const int first = k >= 0 ? loop[(k + 1) % n] : corners[0].first;
     const int last = k >= 0 ? loop[(k + n - 1) % n] : corners[0].first;
