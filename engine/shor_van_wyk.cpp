@@ -188,6 +188,11 @@ private:
     if (cap_i < 0) return 0;
     const int cap_j = cap_at_end(i, j);
     if (cap_j < 0) return 0;
+    // Every pair the caps allow: once the entry holds them all, no further split can add anything (with all
+    // turns zero that is the single pair (0, 0), so the first valid split settles the entry).
+    Mask full = 0;
+    for (int ri = 0; ri <= std::min(cap_i, width_ - 1); ++ri)
+      for (int rj = 0; rj <= std::min(cap_j, width_ - 1); ++rj) full |= bit(ri, rj);
     Mask mask = 0;
     auto add_split = [&](int k) {
       if (!usable(i, k, j)) return false;
@@ -196,11 +201,11 @@ private:
         if (ri <= cap_i && rj <= cap_j) mask |= bit(ri, rj);
         return false;
       });
-      if (mask == 0 || width_ > 1) return false;
+      if (mask != full) return false;
       split_hint_[i] = k;
-      return true;  // with a single possible pair, the first split settles the entry
+      return true;
     };
-    if (width_ == 1 && try_hints(i, j, add_split)) return mask;
+    if (try_hints(i, j, add_split)) return mask;
     for_each_split(i, j, add_split);
     return mask;
   }
