@@ -1,7 +1,7 @@
 // Benchmark of the whole engine (engine/pipeline.h) in the form of the paper's Table 1, with CGAL's own Tutte
 // parameterization of the same mesh for comparison.
 //
-//   bench_pipeline [--quick] [--runs N] [--mesh NAME]... [--data DIR]
+//   bench_pipeline [--quick] [--runs N] [--mesh NAME]... [--data DIR] [--budget-s S]
 //
 // Rows: every disk mesh of ../shared/data/meshes (DIR/meshes) with two generated targets
 // (tests/support/target_generators.h): a circle, and a self-overlapping boundary by construction (exp_strip,
@@ -17,7 +17,9 @@
 // (Surface_mesh_parameterization::Barycentric_mapping_parameterizer_3 with
 // Circular_border_arc_length_parameterizer_3 on a CGAL::Surface_mesh of the same vertices and faces; median
 // of N runs of parameterize() alone, the Surface_mesh construction not counted), and the ratio of lipmap's
-// total to it. Always exits 0; a row whose pipeline throws prints the error instead of numbers.
+// total to it. A row gets S seconds in all (default 300; the pipeline is cancelled through its CancelToken,
+// and the row's process is killed 30 s later as a backstop): "timeout" instead of numbers. Always exits 0; a
+// row whose pipeline throws prints the error instead of numbers.
 #include <sys/resource.h>
 #include <sys/utsname.h>
 #include <sys/wait.h>
@@ -47,6 +49,7 @@
 #include <CGAL/Polygon_mesh_processing/measure.h>
 
 #include "../tests/support/target_generators.h"
+#include "engine/cancel.h"
 #include "engine/error.h"
 #include "engine/mesh_io.h"
 
@@ -165,7 +168,7 @@ struct Row {
   std::string source_solution = "-", target_solution = "-";
 };
 
-Row run_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs) {
+Row run_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs, double budget_s) {
   Row row;
   row.vertices = static_cast<long long>(m.vertices.size());
   row.triangles = static_cast<long long>(m.faces.size());
@@ -179,9 +182,11 @@ Row run_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs) {
   if (t.rotation_indices) b.rotation_indices = std::vector<long long>(t.rotation_indices->begin(), t.rotation_indices->end());
   lipmap::ParametrizeOptions options;  // harmonic, refine, density 1: the paper's setting
   std::vector<double> tri, maps, cr, total, other;
+  lipmap::CancelToken token;
+  token.set_deadline(Clock::now() + std::chrono::milliseconds(static_cast<long long>(budget_s * 1000)));
   for (int r = 0; r < runs; ++r) {
     try {
-      const lipmap::ParametrizeResult res = lipmap::parametrize(raw, b, options);
+      const lipmap::ParametrizeResult res = lipmap::parametrize(raw, b, options, &token);
       const lipmap::StageTimings& s = res.timings;
       tri.push_back(s.classify + s.target_mesh);
       maps.push_back(s.intermediate_maps);
@@ -193,6 +198,9 @@ Row run_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs) {
       row.verdict = lipmap::to_string(res.classification.verdict);
       row.source_solution = lipmap::to_string(res.source_map_solution);
       row.target_solution = lipmap::to_string(res.target_map_solution);
+    } catch (const lipmap::Cancelled&) {
+      if (total.empty()) row.error = "timeout: over the budget of " + std::to_string(static_cast<int>(budget_s)) + " s";
+      break;  // with some runs done: the median of those
     } catch (const lipmap::InputError& e) {
       row.error = e.code() + ": " + e.what();
       break;
@@ -209,6 +217,7 @@ Row run_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs) {
 #else
   (void)t;
   (void)runs;
+  (void)budget_s;
   row.error = "engine/pipeline.cpp is not built yet";
 #endif
   struct rusage ru {};
@@ -219,7 +228,7 @@ Row run_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs) {
 
 // Runs fn in a forked child and returns the line it wrote (so that ru_maxrss is the child's own peak).
 template <class Fn>
-std::string isolated(Fn fn) {
+std::string isolated(Fn fn, unsigned kill_after_s = 0) {
   int fd[2];
   if (pipe(fd) != 0) return fn();
   std::fflush(stdout);
@@ -231,6 +240,7 @@ std::string isolated(Fn fn) {
   }
   if (pid == 0) {
     close(fd[0]);
+    if (kill_after_s > 0) alarm(kill_after_s);  // backstop: SIGALRM ends the child
     std::string line;
     try {
       line = fn();
@@ -326,6 +336,7 @@ std::string cpu_model() {
 
 int main(int argc, char** argv) {
   int runs = 3;
+  double budget_s = 300;
   std::vector<std::string> only;
   std::string data = default_data_dir();
   if (const char* env = std::getenv("LIPMAP_DATA_DIR"); env && *env) data = env;
@@ -334,8 +345,9 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--runs") && i + 1 < argc) runs = std::max(1, std::atoi(argv[++i]));
     else if (!std::strcmp(argv[i], "--mesh") && i + 1 < argc) only.push_back(argv[++i]);
     else if (!std::strcmp(argv[i], "--data") && i + 1 < argc) data = argv[++i];
+    else if (!std::strcmp(argv[i], "--budget-s") && i + 1 < argc) budget_s = std::max(1.0, std::atof(argv[++i]));
     else {
-      std::printf("usage: %s [--quick] [--runs N] [--mesh NAME]... [--data DIR]\n", argv[0]);
+      std::printf("usage: %s [--quick] [--runs N] [--mesh NAME]... [--data DIR] [--budget-s S]\n", argv[0]);
       return 0;
     }
   }
@@ -350,8 +362,8 @@ int main(int argc, char** argv) {
               "(Barycentric_mapping_parameterizer_3 + Circular_border_arc_length_parameterizer_3)\n");
   std::printf("machine: %s %s %s %s; %u hardware threads (nproc); %s\n", u.sysname, u.nodename, u.release, u.machine,
               std::thread::hardware_concurrency(), cpu_model().c_str());
-  std::printf("median of %d run%s per row; times in ms; peak = max resident set of the row's own process\n", runs,
-              runs == 1 ? "" : "s");
+  std::printf("median of %d run%s per row (budget %.0f s per row); times in ms; peak = max resident set of the row's "
+              "own process\n", runs, runs == 1 ? "" : "s", budget_s);
 #if !LIPMAP_BENCH_HAVE_PIPELINE
   std::printf("NOTE: engine/pipeline.cpp is not built yet: lipmap columns are empty\n");
 #endif
@@ -391,7 +403,8 @@ int main(int argc, char** argv) {
         break;
       }
     for (const auto& t : targets) {
-      const Row r = decode(isolated([&] { return encode(run_row(m, t, runs)); }));
+      const Row r = decode(isolated([&] { return encode(run_row(m, t, runs, budget_s)); },
+                                    static_cast<unsigned>(budget_s) + 30));
       if (!r.error.empty()) {
         std::printf("%-26s %-11s error: %s\n", name.c_str(), lipmap::targetgen::kind_name(t.kind), r.error.c_str());
         continue;

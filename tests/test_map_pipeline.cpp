@@ -663,8 +663,11 @@ TEST(MapPipeline, NonSelfOverlappingBoundariesAreRefused) {
 // triangulation and h_t on the target mesh (a CGAL quality mesh of the same polygon with other vertices):
 // two discretizations of the same harmonic map. Their difference is a discretization error of the order of
 // the mesh size near the boundary's sharp features. Tolerances (relative to the bounding-box diagonal):
-// mean displacement < 0.5 %, max < 5 %. Tutte weights are not a discretization of anything smooth that is
-// triangulation-independent, so the two Tutte maps disagree much more: its mean displacement is larger.
+// mean displacement < 0.1 %, max < 1 % (measured: woody 0.023 % / 0.22 %, alligator 0.004 % / 0.16 %; the
+// margin covers other target-mesh densities and solver round-off, not a different algorithm). Tutte weights
+// are not a discretization of anything smooth that is triangulation-independent, so the two Tutte maps
+// disagree much more (measured: mean 0.48 % and 0.16 %): its mean displacement must be at least twice and
+// its maximum larger than the harmonic one.
 struct Displacement {
   double max = 0, mean = 0;
 };
@@ -710,8 +713,8 @@ TEST(MapPipeline, IdentityReproductionOfPlanarMeshes) {
     RecordProperty(std::string(file) + "_tutte_mean", std::to_string(dt.mean));
     std::printf("[ identity ] %s: harmonic max %.4g mean %.4g, tutte max %.4g mean %.4g (of the bbox diagonal)\n", file,
                 dh.max, dh.mean, dt.max, dt.mean);
-    EXPECT_LT(dh.mean, 0.005) << file;
-    EXPECT_LT(dh.max, 0.05) << file;
+    EXPECT_LT(dh.mean, 0.001) << file;
+    EXPECT_LT(dh.max, 0.01) << file;
     EXPECT_GT(dt.mean, 2 * dh.mean) << file << ": tutte is not farther from the identity than harmonic";
     EXPECT_GT(dt.max, dh.max) << file;
   }
