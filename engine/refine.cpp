@@ -11,6 +11,7 @@
 #include "engine/refine.h"
 
 #include <algorithm>
+#include <cmath>
 #include <chrono>
 #include <cstdint>
 #include <memory>
@@ -58,6 +59,9 @@ public:
         walk_(*walk_owned_), cancel_(cancel) {
     const int nv = static_cast<int>(source.vertices.size());
     start_face_ = composition.target_face;
+    double extent = 0;  // of the target polygon, for the rounding tolerance of drop_repeated_images
+    for (const Point2& p : target.vertices) extent = std::max({extent, std::abs(p.x), std::abs(p.y)});
+    image_tolerance_ = 1e-12 * extent;
     singular_.assign(nv, 0);
     for (int k = 0; k < static_cast<int>(loop.size()); ++k) {
       start_face_[loop[k]] = walk_.face_at_vertex(k);
@@ -442,20 +446,26 @@ private:
     }
   }
 
-  // A point whose image equals the image of the point before it along the edge (or of the edge's far end)
-  // adds nothing to the image polygon but a zero-length side, which no triangulation has. It happens when a
-  // source vertex lands exactly on, or within rounding of, a target vertex: the walk then crosses that
-  // vertex at t ~ 0 and the barycentric image of the source vertex rounds to the same point.
+  // A point whose image coincides, up to rounding, with the image of the point before it along the edge (or
+  // of the edge's far end) adds nothing to the image polygon but a side of rounding-error length whose
+  // direction is noise, which breaks the polygon's angles. It happens when a source vertex lands on, or
+  // within rounding of, a target vertex in the disk: the walk then crosses that vertex at t ~ 0 while the
+  // barycentric image of the source vertex rounds a few ulps away. Such points are dropped; every decision
+  // after this is still made exactly on the doubles that remain.
+  bool same_image(const Point2& p, const Point2& q) const {
+    return std::abs(p.x - q.x) <= image_tolerance_ && std::abs(p.y - q.y) <= image_tolerance_;
+  }
+
   void drop_repeated_images(int e) {
     const auto [a, b] = edge_vertices_[e];
     std::vector<EdgePoint> kept;
     Point2 previous = uv_[a];
     for (const EdgePoint& p : points_[e]) {
-      if (p.uv == previous) continue;
+      if (same_image(p.uv, previous)) continue;
       kept.push_back(p);
       previous = p.uv;
     }
-    while (!kept.empty() && kept.back().uv == uv_[b]) kept.pop_back();
+    while (!kept.empty() && same_image(kept.back().uv, uv_[b])) kept.pop_back();
     points_[e] = std::move(kept);
   }
 
@@ -541,6 +551,7 @@ private:
   const detail::DiskWalk& walk_;
   const CancelToken* cancel_;
   std::vector<int> start_face_;
+  double image_tolerance_ = 0;
   std::vector<int> singular_;  // per source vertex: the classification's R at boundary vertices, else 0
 
   std::vector<std::array<int, 3>> face_edges_;

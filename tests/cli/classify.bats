@@ -272,10 +272,10 @@ triangulation_is_valid() {
   expect_error 2 usage
 }
 
-@test "map and serve: not implemented yet, exit 2" {
+@test "map without an output file is a usage error, exit 2 (map itself is tested in map.bats)" {
   lipmap map mesh.obj
-  expect_error 2 not_implemented
-  [[ "$stderr" == *"not implemented yet"* ]]
+  expect_error 2 usage
+  [[ "$stderr" == *"--output is required"* ]]
 }
 
 @test "serve: a bad setting is a usage error, exit 2 (the service itself is tested in tests/http)" {
