@@ -18,20 +18,6 @@
 
 #include <CLI/CLI.hpp>
 
-// `lipmap map` needs the whole engine (engine/pipeline.cpp). The server's CMakeLists says whether it is
-// there (LIPMAP_HAVE_PIPELINE); without that, the source tree decides.
-#if defined(LIPMAP_HAVE_PIPELINE)
-#define LIPMAP_CLI_HAVE_PIPELINE LIPMAP_HAVE_PIPELINE
-#elif defined(__has_include)
-#if __has_include("engine/pipeline.cpp")
-#define LIPMAP_CLI_HAVE_PIPELINE 1
-#else
-#define LIPMAP_CLI_HAVE_PIPELINE 0
-#endif
-#else
-#define LIPMAP_CLI_HAVE_PIPELINE 0
-#endif
-
 #include "engine/pipeline.h"
 
 #include "engine/classify.h"
@@ -136,20 +122,6 @@ std::string lower_extension(const std::string& path) {
   std::string out;
   for (char c : ext) out += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return out.empty() ? out : out.substr(1);
-}
-
-[[maybe_unused]] const char* stage_name(Stage stage) {
-  switch (stage) {
-    case Stage::validate: return "validate";
-    case Stage::classify: return "classify";
-    case Stage::target_mesh: return "target_mesh";
-    case Stage::intermediate_maps: return "intermediate_maps";
-    case Stage::compose: return "compose";
-    case Stage::refine: return "refine";
-    case Stage::verify: return "verify";
-    case Stage::quality: return "quality";
-  }
-  return "stage";
 }
 
 // An InputError about the boundary, when the boundary came from its own file: "/boundary/positions/3" ->
@@ -263,7 +235,6 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
     if (args.no_refine) options.refine = false;
     if (args.target_density > 0) options.target_density = args.target_density;
 
-#if LIPMAP_CLI_HAVE_PIPELINE
     // ---- the pipeline ----
     std::mutex progress_mutex;
     std::chrono::steady_clock::time_point stage_start = std::chrono::steady_clock::now();
@@ -276,15 +247,15 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
         if (fraction <= 0) {
           stage_start = now;
           last_percent = 0;
-          err << "lipmap: progress: " << stage_name(stage) << " ...\n";
+          err << "lipmap: progress: " << lipmap::to_string(stage) << " ...\n";
         } else if (fraction >= 1) {
-          err << "lipmap: progress: " << stage_name(stage) << " done in "
+          err << "lipmap: progress: " << lipmap::to_string(stage) << " done in "
               << fmt_ms(std::chrono::duration<double, std::milli>(now - stage_start).count()) << "\n";
         } else {
           const int percent = static_cast<int>(fraction * 100);
           if (percent < last_percent + 10) return;
           last_percent = percent;
-          err << "lipmap: progress: " << stage_name(stage) << " " << percent << "%\n";
+          err << "lipmap: progress: " << lipmap::to_string(stage) << " " << percent << "%\n";
         }
         err.flush();
       };
@@ -332,10 +303,6 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
       err.flush();
     }
     return kExitOk;
-#else
-    (void)options;
-    return not_implemented("map", "the remapping engine, engine/pipeline.cpp", err);
-#endif
   } catch (const MapFailure& e) {
     error_line(err, e.code(), e.what());
     return e.exit_code();

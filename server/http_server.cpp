@@ -36,9 +36,7 @@
 #include "server/proto_embedded.h"
 #include "server/worker_pool.h"
 
-#if __has_include("server/svg_preview.h")
 #include "server/svg_preview.h"
-#endif
 
 // Last: with its OpenSSL support cpp-httplib pulls in <resolv.h>, whose `_res` macro breaks Eigen's headers.
 #include <httplib.h>
@@ -294,20 +292,6 @@ void apply_hooks(const TestHooks& hooks, const CancelToken& token) {
 
 // ---- engine work ---------------------------------------------------------------------------------------
 
-const char* stage_label(Stage s) {
-  switch (s) {
-    case Stage::validate: return "validate";
-    case Stage::classify: return "classify";
-    case Stage::target_mesh: return "target_mesh";
-    case Stage::intermediate_maps: return "intermediate_maps";
-    case Stage::compose: return "compose";
-    case Stage::refine: return "refine";
-    case Stage::verify: return "verify";
-    case Stage::quality: return "quality";
-  }
-  return "unknown";
-}
-
 struct MapOutcome {
   std::shared_ptr<const std::string> json;
   std::shared_ptr<const ParametrizeResult> result;
@@ -323,7 +307,6 @@ lipmap::ParametrizeOptions to_engine_options(const codec::ParametrizeOptions& o)
 
 MapOutcome run_map(const codec::ParametrizeRequest& request, const CancelToken& token, const ProgressFn& progress,
                    Metrics& metrics) {
-#if LIPMAP_HAVE_PIPELINE
   auto result = std::make_shared<ParametrizeResult>(
       parametrize(request.mesh, request.boundary, to_engine_options(request.options), &token, progress));
   const StageTimings& t = result->timings;
@@ -332,31 +315,10 @@ MapOutcome run_map(const codec::ParametrizeRequest& request, const CancelToken& 
                                              {Stage::intermediate_maps, t.intermediate_maps},
                                              {Stage::compose, t.compose},     {Stage::refine, t.refine},
                                              {Stage::verify, t.verify},       {Stage::quality, t.quality}};
-  for (const auto& [stage, ms] : stages) metrics.observe_stage(stage_label(stage), ms / 1000.0);
+  for (const auto& [stage, ms] : stages) metrics.observe_stage(lipmap::to_string(stage), ms / 1000.0);
   metrics.observe_inserted_vertices(static_cast<long long>(result->map.inserted.size()));
   auto text = std::make_shared<const std::string>(codec::dump(codec::parametrize_result_to_json(*result)));
   return {std::move(text), std::move(result)};
-#else
-  // This build has no remapping engine yet (engine/pipeline.cpp): the stages that exist run, so that every
-  // input error is answered exactly as it will be, and a valid request ends in a clear 500.
-  (void)to_engine_options;
-  (void)stage_label;
-  const auto t0 = Clock::now();
-  if (progress) progress(Stage::validate, 0);
-  const DiskMesh mesh = validate_mesh(request.mesh);
-  const BoundaryMap boundary = validate_boundary(mesh, request.boundary);
-  if (progress) progress(Stage::validate, 1);
-  metrics.observe_stage("validate", ms_since(t0) / 1000.0);
-  token.check();
-  const auto t1 = Clock::now();
-  if (progress) progress(Stage::classify, 0);
-  Classification c = classify(boundary.polygon, &token);
-  metrics.observe_stage("classify", ms_since(t1) / 1000.0);
-  if (c.verdict == Verdict::not_self_overlapping) throw NotSelfOverlapping(std::move(c));
-  throw InternalError("this build of lipmap has no remapping engine yet (engine/pipeline.cpp is missing): "
-                      "the mesh and boundary are valid and the boundary is " +
-                      std::string(codec::verdict_name(c.verdict)));
-#endif
 }
 
 }  // namespace
@@ -899,7 +861,6 @@ struct HttpServer::Impl {
     std::shared_ptr<Job> job = std::get<std::shared_ptr<Job>>(found);
     const JobSnapshot s = job->snapshot();
     if (s.state != JobState::succeeded) return not_finished(*job, s);
-#if LIPMAP_HAVE_SVG_PREVIEW
     if (std::shared_ptr<const std::string> cached = job->preview()) {
       Answer a;
       a.content_type = "image/svg+xml";
@@ -920,7 +881,6 @@ struct HttpServer::Impl {
         return a;
       });
     }
-#endif
     return problem_answer(404, "preview_unavailable",
                           "this build of lipmap has no SVG preview renderer; the job's result is at /v1/jobs/" + id +
                               "/result");
@@ -1202,7 +1162,7 @@ void HttpServer::start() {
                                 {"result_ttl_seconds", s.config.result_ttl_seconds},
                                 {"max_results", s.config.max_results},
                                 {"grace_seconds", s.config.grace_seconds},
-                                {"remapping_engine", LIPMAP_HAVE_PIPELINE ? true : false},
+                                {"remapping_engine", true},
                                 {"test_hooks", s.config.test_hooks}}, true);
   if (s.config.test_hooks)
     s.event(spdlog::level::warn, {{"event", "test_hooks_enabled"},

@@ -12,21 +12,6 @@ constexpr std::array<Stage, 8> kStages{Stage::validate,          Stage::classify
                                        Stage::intermediate_maps, Stage::compose,  Stage::refine,
                                        Stage::verify,            Stage::quality};
 
-// The wire names of the stages (the same as lipmap::to_string(Stage), without needing the pipeline's object).
-const char* stage_name(Stage s) {
-  switch (s) {
-    case Stage::validate: return "validate";
-    case Stage::classify: return "classify";
-    case Stage::target_mesh: return "target_mesh";
-    case Stage::intermediate_maps: return "intermediate_maps";
-    case Stage::compose: return "compose";
-    case Stage::refine: return "refine";
-    case Stage::verify: return "verify";
-    case Stage::quality: return "quality";
-  }
-  return "unknown";
-}
-
 std::size_t stage_index(Stage s) {
   return static_cast<std::size_t>(std::find(kStages.begin(), kStages.end(), s) - kStages.begin());
 }
@@ -73,7 +58,7 @@ void Job::report(Stage stage, double fraction) {
   const auto now = SteadyClock::now();
   std::lock_guard<std::mutex> lock(mutex_);
   if (state_ != JobState::running) return;
-  const std::string name = stage_name(stage);
+  const std::string name = lipmap::to_string(stage);
   fraction = std::clamp(fraction, 0.0, 1.0);
   if (stages_.empty() || stages_.back().stage != name) {
     // A new stage: the ones before it are over.
@@ -136,7 +121,7 @@ JobSnapshot Job::snapshot() const {
     const StageProgress& last = stages_.back();
     Stage last_stage = Stage::validate;
     for (Stage st : kStages)
-      if (last.stage == stage_name(st)) last_stage = st;
+      if (last.stage == lipmap::to_string(st)) last_stage = st;
     s.fraction = (static_cast<double>(stage_index(last_stage)) + (last.done ? 1.0 : last.fraction)) /
                  static_cast<double>(kStages.size());
     if (state_ == JobState::running) s.current_stage = last.stage;
