@@ -73,14 +73,14 @@ nlohmann::ordered_json classify_request_to_json(const BoundaryPolygon& polygon);
 // ---- POST /v1/parametrize and POST /v1/jobs -------------------------------------------------------------
 // {"mesh": {"vertices": [[x,y,z]...], "faces": [[i,j,k]...]},
 //  "boundary": {"vertices": [i...]?, "positions": [[u,v]...], "rotation_indices": [r...]?},
-//  "options": {"method": "tutte"|"harmonic", "refine": bool, "target_density": number > 0}?}
+//  "options": {"method": "harmonic" (default) | "tutte", "refine": bool, "target_density": number > 0}?}
 // Faces may have any number of corners and indices any integer value here: validate_mesh names those
 // faults (face_not_triangle, face_index_out_of_range) with the engine's codes.
 enum class MapMethod { tutte, harmonic };
 const char* to_string(MapMethod method);
 
 struct ParametrizeOptions {
-  MapMethod method = MapMethod::tutte;
+  MapMethod method = MapMethod::harmonic;  // issue 3 and the engine: harmonic by default
   bool refine = true;
   double target_density = 1.0;  // target-mesh density relative to the source's
 };
