@@ -37,10 +37,8 @@
 #include <thread>
 #include <vector>
 
-// CGAL's parameterization package solves with Eigen; its headers stay in this file (BUILD-NOTES: heavy).
-#ifndef CGAL_EIGEN3_ENABLED
-#define CGAL_EIGEN3_ENABLED
-#endif
+// CGAL's parameterization package solves with Eigen (CGAL::Eigen3_support, bench/CMakeLists.txt); its
+// headers stay in this file (BUILD-NOTES: heavy).
 #include <CGAL/Simple_cartesian.h>
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/Surface_mesh_parameterization/Barycentric_mapping_parameterizer_3.h>
