@@ -42,6 +42,25 @@ void error_line(std::ostream& err, const std::string& code, const std::string& m
   err.flush();
 }
 
+// Called inside a catch (...) block: the one-line message and exit code of a failure that is not the
+// input's fault (InputError is handled where it is caught, with its own pointer).
+int report_failure(std::ostream& err, const char* task) {
+  try {
+    throw;
+  } catch (const InternalError& e) {
+    error_line(err, "internal_error", e.what());
+  } catch (const Cancelled& e) {
+    error_line(err, "cancelled", e.what());
+  } catch (const std::bad_alloc&) {
+    error_line(err, "out_of_memory", std::string("not enough memory to ") + task);
+  } catch (const std::exception& e) {
+    error_line(err, "internal_error", e.what());
+  } catch (...) {
+    error_line(err, "internal_error", "unexpected exception");
+  }
+  return kExitInternalError;
+}
+
 // A file that cannot be read is the caller's fault; reported like any other input error.
 class ReadError : public std::runtime_error {
 public:
@@ -95,21 +114,8 @@ int classify_command(const std::string& file, bool pretty, std::istream& in, std
   } catch (const InputError& e) {  // JsonError from the codec, or the engine's own validation
     error_line(err, e.code(), where(codec::classify_error_pointer(e)) + e.what());
     return kExitInputError;
-  } catch (const InternalError& e) {
-    error_line(err, "internal_error", e.what());
-    return kExitInternalError;
-  } catch (const Cancelled& e) {
-    error_line(err, "cancelled", e.what());
-    return kExitInternalError;
-  } catch (const std::bad_alloc&) {
-    error_line(err, "out_of_memory", "not enough memory to classify this polygon");
-    return kExitInternalError;
-  } catch (const std::exception& e) {
-    error_line(err, "internal_error", e.what());
-    return kExitInternalError;
   } catch (...) {
-    error_line(err, "internal_error", "unexpected exception");
-    return kExitInternalError;
+    return report_failure(err, "classify this polygon");
   }
 }
 
@@ -312,21 +318,8 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
   } catch (const InputError& e) {  // read_mesh_file, write_obj
     error_line(err, e.code(), e.what());
     return kExitInputError;
-  } catch (const InternalError& e) {
-    error_line(err, "internal_error", e.what());
-    return kExitInternalError;
-  } catch (const Cancelled& e) {
-    error_line(err, "cancelled", e.what());
-    return kExitInternalError;
-  } catch (const std::bad_alloc&) {
-    error_line(err, "out_of_memory", "not enough memory to map this mesh");
-    return kExitInternalError;
-  } catch (const std::exception& e) {
-    error_line(err, "internal_error", e.what());
-    return kExitInternalError;
   } catch (...) {
-    error_line(err, "internal_error", "unexpected exception");
-    return kExitInternalError;
+    return report_failure(err, "map this mesh");
   }
 }
 
