@@ -152,6 +152,18 @@ struct System {
 
 // Interior block and right-hand side of the vertex_count x vertex_count operator L (rows of boundary
 // vertices are ignored). uv holds the boundary positions.
+// The matrix from its triplets, and the right-hand side (accumulated in long double) rounded once.
+void finish_system(System& s, const std::vector<Triplet>& trip, int m) {
+  s.A.resize(m, m);
+  s.A.setFromTriplets(trip.begin(), trip.end());
+  s.A.makeCompressed();
+  s.b.resize(m, 2);
+  for (int i = 0; i < m; ++i) {
+    s.b(i, 0) = static_cast<double>(s.bx[static_cast<std::size_t>(i)]);
+    s.b(i, 1) = static_cast<double>(s.by[static_cast<std::size_t>(i)]);
+  }
+}
+
 System extract(const SpMat& L, const Layout& lay, const std::vector<Point2>& uv) {
   const int m = static_cast<int>(lay.interior.size());
   System s;
@@ -173,14 +185,7 @@ System extract(const SpMat& L, const Layout& lay, const std::vector<Point2>& uv)
       }
     }
   }
-  s.A.resize(m, m);
-  s.A.setFromTriplets(trip.begin(), trip.end());
-  s.A.makeCompressed();
-  s.b.resize(m, 2);
-  for (int i = 0; i < m; ++i) {
-    s.b(i, 0) = static_cast<double>(s.bx[static_cast<std::size_t>(i)]);
-    s.b(i, 1) = static_cast<double>(s.by[static_cast<std::size_t>(i)]);
-  }
+  finish_system(s, trip, m);
   return s;
 }
 
@@ -220,14 +225,7 @@ System assemble_symmetric(const Layout& lay, const std::vector<Triangle>& faces,
     }
   }
   for (int i = 0; i < m; ++i) trip.emplace_back(i, i, diag[static_cast<std::size_t>(i)]);
-  s.A.resize(m, m);
-  s.A.setFromTriplets(trip.begin(), trip.end());
-  s.A.makeCompressed();
-  s.b.resize(m, 2);
-  for (int i = 0; i < m; ++i) {
-    s.b(i, 0) = static_cast<double>(s.bx[static_cast<std::size_t>(i)]);
-    s.b(i, 1) = static_cast<double>(s.by[static_cast<std::size_t>(i)]);
-  }
+  finish_system(s, trip, m);
   return s;
 }
 
