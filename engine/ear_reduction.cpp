@@ -21,8 +21,11 @@ public:
     }
     x0_ = x0; y0_ = y0;
     const double w = x1 - x0, h = y1 - y0, n = static_cast<double>(p.size());
+    // About one edge per cell, and never more than about 3n cells: a thin polygon (the image of a refined
+    // face is often a sliver) would otherwise get thousands of empty cells to allocate and scan.
     double cell = std::sqrt(std::max(w * h, 1e-300) / n);
-    cell = std::max({cell, w / 4096, h / 4096});
+    cell = std::max({cell, w / n, h / n});
+    if (p.size() <= kSmall) cell = std::max(w, h) * 2;  // brute force is cheaper than any grid
     if (!(cell > 0) || !std::isfinite(cell)) cell = 1;
     inv_ = 1 / cell;
     nx_ = std::clamp(static_cast<int>(w * inv_) + 1, 1, 4096);
@@ -58,6 +61,7 @@ public:
   }
 
 private:
+  static constexpr std::size_t kSmall = 24;
   struct Edge { int from, to; };
   int cx(double x) const { return std::clamp(static_cast<int>(std::floor((x - x0_) * inv_)), 0, nx_ - 1); }
   int cy(double y) const { return std::clamp(static_cast<int>(std::floor((y - y0_) * inv_)), 0, ny_ - 1); }
@@ -73,6 +77,20 @@ private:
   int nx_, ny_;
   std::vector<std::vector<Edge>> cells_;
 };
+
+// Does segment (s, t) meet the closed, counterclockwise triangle (a, b, c)? Two compact convex sets are
+// disjoint exactly when a line parallel to one of their sides separates them strictly, so orientation
+// signs alone decide it (no constructions).
+bool segment_meets_triangle(const Pt& s, const Pt& t, const Pt& a, const Pt& b, const Pt& c) {
+  const Pt* corner[3] = {&a, &b, &c};
+  for (int i = 0; i < 3; ++i) {
+    const Pt &p = *corner[i], &q = *corner[(i + 1) % 3];
+    if (orient(p, q, s) < 0 && orient(p, q, t) < 0) return false;
+  }
+  const int oa = orient(s, t, a), ob = orient(s, t, b), oc = orient(s, t, c);
+  if ((oa > 0 && ob > 0 && oc > 0) || (oa < 0 && ob < 0 && oc < 0)) return false;
+  return true;
+}
 
 class EarClipper {
 public:
@@ -163,7 +181,6 @@ private:
   // in the single points a and b of the edges arriving at a and leaving b.
   bool ear_is_empty(int a, int v, int b) {
     const Pt &pa = p_[a], &pv = p_[v], &pb = p_[b];
-    const Kernel::Triangle_2 ear(pa, pv, pb);
     ++query_;
     auto live = [&](int from, int to) { return alive_[from] && next_[from] == to; };  // else a clipped edge
     const bool blocked = grid_.any_near(pa, pv, pb, live, [&](int from, int to) {
@@ -174,7 +191,7 @@ private:
       // at a outside the corner at a (sweep v -> b); the ear is convex, so it then never comes back.
       if (from == b) return !sweeps_before(pb, pa, pv, p_[to]);
       if (to == a) return !sweeps_before(pa, pv, pb, p_[from]);
-      return CGAL::do_intersect(Kernel::Segment_2(p_[from], p_[to]), ear);
+      return segment_meets_triangle(p_[from], p_[to], pa, pv, pb);
     });
     return !blocked;
   }

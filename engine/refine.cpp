@@ -17,6 +17,8 @@
 #include <memory>
 #include <optional>
 #include <unordered_map>
+#include <cstdio>
+#include <cstdlib>
 
 #include "engine/detail/disk_walk.h"
 #include "engine/detail/plane_angles.h"
@@ -82,7 +84,8 @@ public:
     auto t0 = Clock::now();
     refine_from(bad);
     out.refine_ms = ms_since(t0);
-    for (const auto& pts : points_) out.points_before_simplification += static_cast<int>(pts.size());
+    for (const auto& pts : points_)
+      for (const EdgePoint& p : pts) out.points_before_simplification += p.removed ? 0 : 1;
 
     t0 = Clock::now();
     out.simplification_rounds = simplify();
@@ -212,25 +215,46 @@ private:
   }
 
   // Full turns of the image one-ring around interior vertex v, summing its faces' corner sweeps (App. B).
+  // Each side of a corner points at the first remaining point on that edge, or at the far vertex.
   int winding(int v) const {
-    std::vector<std::pair<int, int>> fan;  // (next, prev) of v in each face: the corner sweeps next -> prev
+    struct Corner { int next, prev; Pt from, to; };  // the corner of v in one face sweeps from -> to
+    std::vector<Corner> fan;
     for (auto fh : source_.mesh.vf_range(source_.mesh.vertex_handle(v))) {
-      const Triangle& t = faces_[fh.idx()];
+      const int f = fh.idx();
+      const Triangle& t = faces_[f];
       const int c = t[0] == v ? 0 : t[1] == v ? 1 : 2;
-      fan.push_back({t[(c + 1) % 3], t[(c + 2) % 3]});
+      fan.push_back({t[(c + 1) % 3], t[(c + 2) % 3], ray_point(v, face_edges_[f][c]),
+                     ray_point(v, face_edges_[f][(c + 2) % 3])});
     }
-    const Pt center = pt(uv_[v]), start = pt(uv_[fan[0].first]);
-    int at = fan[0].first, turns = 0;
+    const Pt center = pt(uv_[v]), start = fan[0].from;
+    int at = fan[0].next, turns = 0;
     for (std::size_t step = 0; step < fan.size(); ++step) {
-      auto it = std::find_if(fan.begin(), fan.end(), [&](const auto& s) { return s.first == at; });
+      auto it = std::find_if(fan.begin(), fan.end(), [&](const Corner& s) { return s.next == at; });
       if (it == fan.end()) return 0;
-      turns += detail::extra_turn(center, start, pt(uv_[at]), pt(uv_[it->second]));
-      at = it->second;
+      turns += detail::extra_turn(center, start, it->from, it->to);
+      at = it->prev;
     }
     return turns;
   }
 
+  // Where the image of edge e leaves v: its first remaining point seen from v, or its other end.
+  Pt ray_point(int v, int e) const {
+    const std::vector<EdgePoint>& pts = points_[e];
+    const bool from_low = edge_vertices_[e][0] == v;
+    for (std::size_t k = 0; k < pts.size(); ++k) {
+      const EdgePoint& p = pts[from_low ? k : pts.size() - 1 - k];
+      if (!p.removed) return pt(p.uv);
+    }
+    return pt(uv_[from_low ? edge_vertices_[e][1] : edge_vertices_[e][0]]);
+  }
+
   // ---- stage 2: the refinement loop of paper 4 ----
+  // The paper inserts every crossing of a refined edge and lets Fig. 11 remove what is not needed. Here an
+  // edge starts with its first and last crossings only (so the rays leaving its two ends are the true
+  // ones, as with every crossing), and a face whose polygon is not usable gets the middle crossing of every
+  // gap on its edges, level after level, until it is usable or its edges carry every crossing (then it is
+  // the paper's polygon, which is usable). Polygons stay small, and the rounds of Fig. 11 start close to
+  // their end.
   void insert_crossings(int e) {
     edge_done_[e] = 1;
     if (edge_faces_[e][1] < 0) return;  // boundary edges coincide with h_t(M_t)'s boundary: nothing crosses
@@ -240,28 +264,96 @@ private:
       points_[e].push_back({c.t, c.uv, false});
     drop_repeated_images(e);
     point_count_ += static_cast<long long>(points_[e].size());
+    for (std::size_t k = 1; k + 1 < points_[e].size(); ++k) points_[e][k].removed = true;
   }
 
-  void refine_from(const std::vector<int>& bad) {
-    std::vector<int> stack(bad.rbegin(), bad.rend());
+  // Puts back the middle crossing of every gap between remaining points on one edge of f: the edge with the
+  // widest gap, so that each step changes as few neighbours as possible. False when every crossing of
+  // every edge of f is already there.
+  bool densify(int f, std::vector<char>& changed_edge) {
+    int widest = 0, edge = -1;
+    for (int i = 0; i < 3; ++i) {
+      const int gap = widest_gap(face_edges_[f][i]);
+      if (gap > widest) { widest = gap; edge = i; }
+    }
+    if (edge < 0) return false;
+    std::vector<EdgePoint>& pts = points_[face_edges_[f][edge]];
+    int last = -1;
+    for (int k = 0; k < static_cast<int>(pts.size()); ++k) {
+      if (pts[k].removed) continue;
+      if (last >= 0 && k - last > 1) pts[(last + k) / 2].removed = false;
+      last = k;
+    }
+    changed_edge[edge] = 1;
+    return true;
+  }
+
+  int widest_gap(int e) const {  // the most removed crossings between two remaining ones on e
+    int widest = 0, last = -1;
+    for (int k = 0; k < static_cast<int>(points_[e].size()); ++k) {
+      if (points_[e][k].removed) continue;
+      if (last >= 0) widest = std::max(widest, k - last - 1);
+      last = k;
+    }
+    return widest;
+  }
+
+  void refine_from(std::vector<int> bad) {
     std::vector<char> queued(faces_.size(), 0);
-    for (int f : bad) queued[f] = 1;
+    while (!bad.empty()) {
+      std::vector<int> stack(bad.rbegin(), bad.rend());
+      for (int f : bad) queued[f] = 1;
+      run_refinement(stack, queued);
+      bad = faces_around_wrong_windings();
+    }
+  }
+
+  void run_refinement(std::vector<int>& stack, std::vector<char>& queued) {
     int steps = 0;
     while (!stack.empty()) {
       if (++steps % 256 == 0) check_cancel(cancel_);
       const int f = stack.back();
       stack.pop_back();
       queued[f] = 0;
+      std::vector<char> changed(3, 0);
       for (int i = 0; i < 3; ++i)
-        if (!edge_done_[face_edges_[f][i]]) insert_crossings(face_edges_[f][i]);
+        if (!edge_done_[face_edges_[f][i]]) {
+          insert_crossings(face_edges_[f][i]);
+          changed[i] = 1;
+        }
+      while (!usable(f) && densify(f, changed)) {}
       for (int i = 0; i < 3; ++i) {
         const int g = across(f, i);
-        if (g >= 0 && !queued[g] && !fully_refined(g) && !usable(g)) {
+        if (changed[i] && g >= 0 && !queued[g] && !usable(g)) {
           queued[g] = 1;
           stack.push_back(g);
         }
       }
     }
+  }
+
+  // Interior vertices at a refined edge whose image one-ring no longer winds once: every edge around them
+  // is refined, so that the rays leaving them are the true ones; their faces are checked again.
+  std::vector<int> faces_around_wrong_windings() {
+    std::vector<int> out;
+    const TriMesh& mesh = source_.mesh;
+    for (auto vh : mesh.vertices()) {
+      if (mesh.is_boundary(vh)) continue;
+      bool touched = false, all_done = true;
+      for (auto heh : mesh.voh_range(vh)) {
+        const int f = mesh.face_handle(heh).idx();
+        if (f < 0) continue;
+        for (int i = 0; i < 3; ++i) {
+          const int e = face_edges_[f][i];
+          if (edge_vertices_[e][0] != vh.idx() && edge_vertices_[e][1] != vh.idx()) continue;
+          touched = touched || !points_[e].empty();
+          all_done = all_done && edge_done_[e];
+        }
+      }
+      if (!touched || all_done || winding(vh.idx()) == 1) continue;
+      for (auto fh : mesh.vf_range(vh)) out.push_back(fh.idx());
+    }
+    return out;
   }
 
   bool has_points(int f) const {
@@ -283,7 +375,9 @@ private:
 
   // ---- stage 3: simplification rounds of Fig. 11 ----
   // A point that stayed after a round can only become removable when one of its two polygons changed, so
-  // later rounds look only at the edges of faces that lost a point in the round before.
+  // later rounds look only at the edges of faces that lost a point in the round before. On each edge the
+  // remaining points are tried as a run: all of them, then each half, down to single points, so an edge
+  // that needs few of its points costs a few tests rather than one per point.
   int simplify() {
     const int ne = static_cast<int>(points_.size());
     std::vector<char> look(ne, 1), next(ne, 0);
@@ -294,80 +388,62 @@ private:
       check_cancel(cancel_);
       std::fill(next.begin(), next.end(), 0);
       for (int e = 0; e < ne; ++e) {
-        if (!look[e]) continue;
-        bool edge_changed = remove_all(e);
-        for (int i = 0; !edge_changed && i < static_cast<int>(points_[e].size()); ++i) {
-          if (points_[e][i].removed || !removable(e, i)) continue;
-          points_[e][i].removed = true;
-          edge_changed = true;
-        }
-        for (int i = 0; i < static_cast<int>(points_[e].size()); ++i) {
-          if (points_[e][i].removed || !removable(e, i)) continue;
-          points_[e][i].removed = true;
-        }
-        if (!edge_changed) continue;
+        if (!look[e] || edge_faces_[e][1] < 0) continue;
+        std::vector<int> kept;
+        for (int i = 0; i < static_cast<int>(points_[e].size()); ++i)
+          if (!points_[e][i].removed) kept.push_back(i);
+        if (kept.empty() || !remove_runs(e, kept, 0, static_cast<int>(kept.size()))) continue;
         changed = true;
         for (int f : edge_faces_[e])
-          if (f >= 0)
-            for (int k = 0; k < 3; ++k) next[face_edges_[f][k]] = 1;
+          for (int k = 0; k < 3; ++k) next[face_edges_[f][k]] = 1;
       }
       look.swap(next);
     }
     return rounds;
   }
 
+  // Tries to remove the run kept[lo, hi) of edge e's points; when that fails, each half of it, recursively.
+  bool remove_runs(int e, const std::vector<int>& kept, int lo, int hi) {
+    if (run_removable(e, kept, lo, hi)) {
+      for (int k = lo; k < hi; ++k) points_[e][kept[k]].removed = true;
+      return true;
+    }
+    if (hi - lo == 1) return false;
+    const int mid = lo + (hi - lo) / 2;
+    const bool left = remove_runs(e, kept, lo, mid);
+    return remove_runs(e, kept, mid, hi) || left;
+  }
+
+  // The run can go when both polygons stay usable with the same turning number and the angle sums at the
+  // run's two neighbours along the edge are unchanged (the neighbouring wedges still add up to the same
+  // number of full turns).
+  bool run_removable(int e, const std::vector<int>& kept, int lo, int hi) {
+    const int f1 = edge_faces_[e][0], f2 = edge_faces_[e][1];
+    const std::vector<PolyVertex> before1 = polygon(f1), before2 = polygon(f2);
+    const PolyVertex y = run_neighbour(e, kept, lo - 1, edge_vertices_[e][0]);
+    const PolyVertex z = run_neighbour(e, kept, hi, edge_vertices_[e][1]);
+    const PolyVertex first = run_neighbour(e, kept, lo, -1), last = run_neighbour(e, kept, hi - 1, -1);
+    if (!wedge_kept(before1, before2, y, first, z) || !wedge_kept(before1, before2, z, last, y)) return false;
+    for (int k = lo; k < hi; ++k) points_[e][kept[k]].removed = true;
+    const bool ok = same_turning(before1, f1) && same_turning(before2, f2) && usable(f1) && usable(f2);
+    for (int k = lo; k < hi; ++k) points_[e][kept[k]].removed = false;
+    return ok;
+  }
+
+  // kept[k] as a polygon vertex, or the edge's end `vertex` when k is outside the kept points.
+  PolyVertex run_neighbour(int e, const std::vector<int>& kept, int k, int vertex) const {
+    if (k < 0 || k >= static_cast<int>(kept.size())) return {vertex, -1, -1, uv_[vertex], 0};
+    return {-1, e, kept[k], points_[e][kept[k]].uv, 0};
+  }
+
   bool same_turning(const std::vector<PolyVertex>& before, int f) const {
     return detail::turning_number(points_of(before)) == detail::turning_number(points_of(polygon(f)));
-  }
-
-  // Often an edge needs none of its points: one test for all of them before the point-by-point rounds.
-  // The wedges at the edge's two ends are checked as for a single point, the first and last remaining
-  // points standing for the rays that disappear.
-  bool remove_all(int e) {
-    std::vector<int> kept;
-    for (int i = 0; i < static_cast<int>(points_[e].size()); ++i)
-      if (!points_[e][i].removed) kept.push_back(i);
-    if (kept.size() < 2) return false;
-    const int f1 = edge_faces_[e][0], f2 = edge_faces_[e][1];
-    const std::vector<PolyVertex> before1 = polygon(f1), before2 = polygon(f2);
-    const auto [a, b] = edge_vertices_[e];
-    const PolyVertex va{a, -1, -1, uv_[a], 0}, vb{b, -1, -1, uv_[b], 0};
-    const PolyVertex first{-1, e, kept.front(), points_[e][kept.front()].uv, 0};
-    const PolyVertex last{-1, e, kept.back(), points_[e][kept.back()].uv, 0};
-    const bool wedges = wedge_kept(before1, before2, va, first, vb) && wedge_kept(before1, before2, vb, last, va);
-    if (!wedges) return false;
-    for (int i : kept) points_[e][i].removed = true;
-    if (same_turning(before1, f1) && same_turning(before2, f2) && usable(f1) && usable(f2)) return true;
-    for (int i : kept) points_[e][i].removed = false;
-    return false;
-  }
-
-  // Point i of edge e can go when both polygons stay usable and the angle sums at its two neighbours along
-  // the edge are unchanged (the neighbouring wedges still add up to the same number of full turns).
-  bool removable(int e, int i) {
-    const int f1 = edge_faces_[e][0], f2 = edge_faces_[e][1];
-    const std::vector<PolyVertex> before1 = polygon(f1), before2 = polygon(f2);
-    points_[e][i].removed = true;
-    const bool ok = same_turning(before1, f1) && same_turning(before2, f2) && usable(f1) && usable(f2) &&
-                    wedges_kept(before1, before2, e, i);
-    points_[e][i].removed = false;
-    return ok;
   }
 
   static int find(const std::vector<PolyVertex>& poly, const PolyVertex& v) {
     for (int k = 0; k < static_cast<int>(poly.size()); ++k)
       if (poly[k].same(v)) return k;
     return -1;
-  }
-
-  bool wedges_kept(const std::vector<PolyVertex>& p1, const std::vector<PolyVertex>& p2, int e, int i) const {
-    const PolyVertex x{-1, e, i, points_[e][i].uv, 0};
-    const int k1 = find(p1, x);
-    if (k1 < 0) return false;
-    const int n1 = static_cast<int>(p1.size());
-    const PolyVertex& before = p1[(k1 + n1 - 1) % n1];
-    const PolyVertex& after = p1[(k1 + 1) % n1];
-    return wedge_kept(p1, p2, before, x, after) && wedge_kept(p1, p2, after, x, before);
   }
 
   // At y, the ray towards x becomes the ray towards z. In the polygon whose next vertex after y is x the
