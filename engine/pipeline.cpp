@@ -99,14 +99,20 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
   out.source_map_solution = disk.source.solution;
   out.target_map_solution = disk.target.solution;
 
+  // Relocation moves tangled vertices' disk points (h_s becomes h_s'), so refine works on this copy.
+  std::vector<Point2> source_disk = disk.source.uv;
   const Composition composition = run_stage(Stage::compose, time.compose, cancel, progress, [&] {
-    return compose(input.mesh, input.boundary.loop, disk.source.uv, target, disk.target.uv, cancel);
+    Composition c = compose(input.mesh, input.boundary.loop, source_disk, target, disk.target.uv, cancel);
+    out.relocation = relocate_tangled_vertices(input.mesh, input.boundary.loop, source_disk, c, target, cancel);
+    return c;
   });
 
   out.map = run_stage(Stage::refine, time.refine, cancel, progress, [&] {
-    return refine(input.mesh, input.boundary.loop, out.classification.rotation_indices, disk.source.uv, target,
+    return refine(input.mesh, input.boundary.loop, out.classification.rotation_indices, source_disk, target,
                   disk.target.uv, composition, options.refine, cancel);
   });
+  // Reported as the paper's "flipped before refinement": the composed map's flips, before relocation.
+  out.map.flipped_before_refinement = out.relocation.flipped_before;
   out.flipped = count_non_positive(out.map.uv, out.map.faces);
 
   if (options.refine) {

@@ -15,6 +15,7 @@
 #include "engine/intermediate_map.h"
 #include "engine/quality.h"
 #include "engine/refine.h"
+#include "engine/relocate.h"
 #include "engine/verify.h"
 
 namespace lipmap {
@@ -50,6 +51,7 @@ struct ParametrizeResult {
   TargetMeshSummary target_mesh;
   DiskMapSolution source_map_solution = DiskMapSolution::primary, target_map_solution = DiskMapSolution::primary;
   Distortion distortion;
+  Relocation relocation;            // flips of the composed map, and the vertices moved to undo some (compose)
   int flipped = 0;                  // non-positive uv triangles of the result: 0 whenever refine is on
   StageTimings timings;
 };

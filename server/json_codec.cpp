@@ -689,7 +689,9 @@ ordered_json parametrize_result_to_json(const lipmap::ParametrizeResult& r) {
                       {"min_angle_deg", r.target_mesh.min_angle_deg}};
   d["intermediate_maps"] = {{"source", solution_name(r.source_map_solution)},
                             {"target", solution_name(r.target_map_solution)}};
-  d["refinement"] = {{"refined_faces", m.refined_faces},
+  d["refinement"] = {{"relocated_vertices", r.relocation.moved},
+                     {"flipped_after_relocation", r.relocation.flipped_after},
+                     {"refined_faces", m.refined_faces},
                      {"points_before_simplification", m.points_before_simplification},
                      {"simplification_rounds", m.simplification_rounds}};
   ordered_json edges = ordered_json::array();

@@ -115,7 +115,8 @@ lipmap::ParametrizeOptions engine_options(const ParametrizeOptions& options);
 //  "diagnostics": {"inserted_vertices", "flipped_before_refinement", "flipped",
 //                  "target_mesh": {"vertices", "faces", "pieces", "min_angle_deg"},
 //                  "intermediate_maps": {"source", "target"} ("primary" | "mean_value" | "tutte"),
-//                  "refinement": {"refined_faces", "points_before_simplification", "simplification_rounds"},
+//                  "refinement": {"relocated_vertices", "flipped_after_relocation", "refined_faces",
+//                                 "points_before_simplification", "simplification_rounds"},
 //                  "distortion": {"max", "mean", "histogram": {"edges": [1, 1.1, ..., 10], "counts": [...]}},
 //                  "timings_ms": {"validate", "classify", "target_mesh", "intermediate_maps", "compose",
 //                                 "refine", "verify", "quality", "total"}}}
