@@ -217,8 +217,7 @@ private:
   // Full turns of the image one-ring around interior vertex v, summing its faces' corner sweeps (App. B).
   // Each side of a corner points at the first remaining point on that edge, or at the far vertex.
   int winding(int v) const {
-    struct Corner { int next, prev; Pt from, to; };  // the corner of v in one face sweeps from -> to
-    std::vector<Corner> fan;
+    std::vector<detail::FanCorner> fan;
     for (auto fh : source_.mesh.vf_range(source_.mesh.vertex_handle(v))) {
       const int f = fh.idx();
       const Triangle& t = faces_[f];
@@ -226,15 +225,7 @@ private:
       fan.push_back({t[(c + 1) % 3], t[(c + 2) % 3], ray_point(v, face_edges_[f][c]),
                      ray_point(v, face_edges_[f][(c + 2) % 3])});
     }
-    const Pt center = pt(uv_[v]), start = fan[0].from;
-    int at = fan[0].next, turns = 0;
-    for (std::size_t step = 0; step < fan.size(); ++step) {
-      auto it = std::find_if(fan.begin(), fan.end(), [&](const Corner& s) { return s.next == at; });
-      if (it == fan.end()) return 0;
-      turns += detail::extra_turn(center, start, it->from, it->to);
-      at = it->prev;
-    }
-    return turns;
+    return detail::fan_turns(pt(uv_[v]), fan);
   }
 
   // Where the image of edge e leaves v: its first remaining point seen from v, or its other end.
@@ -339,18 +330,17 @@ private:
     const TriMesh& mesh = source_.mesh;
     for (auto vh : mesh.vertices()) {
       if (mesh.is_boundary(vh)) continue;
+      const int v = vh.idx();
       bool touched = false, all_done = true;
-      for (auto heh : mesh.voh_range(vh)) {
-        const int f = mesh.face_handle(heh).idx();
-        if (f < 0) continue;
-        for (int i = 0; i < 3; ++i) {
-          const int e = face_edges_[f][i];
-          if (edge_vertices_[e][0] != vh.idx() && edge_vertices_[e][1] != vh.idx()) continue;
+      for (auto fh : mesh.vf_range(vh)) {
+        const Triangle& t = faces_[fh.idx()];
+        const int c = t[0] == v ? 0 : t[1] == v ? 1 : 2;
+        for (int e : {face_edges_[fh.idx()][c], face_edges_[fh.idx()][(c + 2) % 3]}) {  // the two edges at v
           touched = touched || !points_[e].empty();
           all_done = all_done && edge_done_[e];
         }
       }
-      if (!touched || all_done || winding(vh.idx()) == 1) continue;
+      if (!touched || all_done || winding(v) == 1) continue;
       for (auto fh : mesh.vf_range(vh)) out.push_back(fh.idx());
     }
     return out;

@@ -11,7 +11,8 @@
 #include <optional>
 
 #include "engine/detail/disk_walk.h"
-#include "engine/detail/plane_angles.h"
+#include "engine/detail/polygon_turns.h"
+#include "engine/flip_check.h"
 
 namespace lipmap {
 namespace {
@@ -68,7 +69,7 @@ public:
 
   Relocation run(const CancelToken* cancel) {
     Relocation out;
-    out.flipped_before = count_flipped();
+    out.flipped_before = count_non_positive(uv_, source_.faces);
     // Every move lowers the number of non-positive triangles (only v's own change), and a move can free its
     // neighbours' moves, so a few sweeps over the vertices still next to a flip settle it.
     for (int sweep = 0; sweep < kSweeps; ++sweep) {
@@ -81,33 +82,29 @@ public:
       }
       if (moved == 0) break;
     }
-    out.flipped_after = count_flipped();
+    out.flipped_after = count_non_positive(uv_, source_.faces);
     return out;
   }
 
 private:
   static constexpr int kSweeps = 8, kNewtonSteps = 16, kHalvings = 10;
 
-  struct Corner { int next, prev; };  // v's corner in one face: the face is (v, next, prev), counterclockwise
+  using Corner = detail::FanCorner;
 
+  // v's corner in each face (v, next, prev), with the image rays towards next and prev.
   std::vector<Corner> corners(int v) const {
     std::vector<Corner> out;
     for (auto fh : source_.mesh.vf_range(source_.mesh.vertex_handle(v))) {
       const Triangle& t = source_.faces[fh.idx()];
       const int c = t[0] == v ? 0 : t[1] == v ? 1 : 2;
-      out.push_back({t[(c + 1) % 3], t[(c + 2) % 3]});
+      const int next = t[(c + 1) % 3], prev = t[(c + 2) % 3];
+      out.push_back({next, prev, pt(uv_[next]), pt(uv_[prev])});
     }
     return out;
   }
 
   bool positive(const Triangle& t) const {
     return detail::orient(pt(uv_[t[0]]), pt(uv_[t[1]]), pt(uv_[t[2]])) > 0;
-  }
-
-  int count_flipped() const {
-    int n = 0;
-    for (const Triangle& t : source_.faces) n += positive(t) ? 0 : 1;
-    return n;
   }
 
   bool tangled(int v) const {
@@ -124,26 +121,13 @@ private:
     return true;
   }
 
-  // The image fan around q winds exactly once (positive triangles can wind twice, paper Fig. 1a).
-  bool winds_once(const Pt& q, const std::vector<Corner>& fan) const {
-    const Pt start = pt(uv_[fan[0].next]);
-    int at = fan[0].next, turns = 0;
-    for (std::size_t step = 0; step < fan.size(); ++step) {
-      auto it = std::find_if(fan.begin(), fan.end(), [&](const Corner& c) { return c.next == at; });
-      if (it == fan.end()) return false;
-      turns += detail::extra_turn(q, start, pt(uv_[it->next]), pt(uv_[it->prev]));
-      at = it->prev;
-    }
-    return turns == 1 && at == fan[0].next;
-  }
-
   // Aims in uv: the centroid of the image link's kernel, where the whole one-ring is positive; when the
   // kernel is empty (the neighbours are tangled too), the centroid of the link's vertices, kept only if it
   // leaves fewer non-positive triangles around v. Each kept move lowers the number of flips, so the sweeps
   // end; what they cannot untangle is refine's.
   bool move(int v) {
     const std::vector<Corner> fan = corners(v);
-    std::vector<Point2> link;  // the image link polygon, counterclockwise
+    std::vector<Point2> link;  // the image link polygon, counterclockwise: next -> prev around the fan
     int at = fan[0].next;
     for (std::size_t step = 0; step < fan.size(); ++step) {
       auto it = std::find_if(fan.begin(), fan.end(), [&](const Corner& c) { return c.next == at; });
@@ -159,7 +143,7 @@ private:
 
   int non_positive(const Pt& q, const std::vector<Corner>& fan) const {
     int n = 0;
-    for (const Corner& c : fan) n += detail::orient(q, pt(uv_[c.next]), pt(uv_[c.prev])) > 0 ? 0 : 1;
+    for (const Corner& c : fan) n += detail::orient(q, c.from, c.to) > 0 ? 0 : 1;
     return n;
   }
 
@@ -187,7 +171,7 @@ private:
       face = walk_.locate(pt(x), face);
       const Point2 moved = walk_.target_point(pt(x), face);
       const int bad = non_positive(pt(moved), fan);
-      if (bad <= allowed && (bad > 0 || winds_once(pt(moved), fan))) {
+      if (bad <= allowed && (bad > 0 || detail::fan_turns(pt(moved), fan) == 1)) {
         disk_[v] = x;
         uv_[v] = moved;
         face_[v] = face;

@@ -32,6 +32,8 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+
+#include "support/data_dir.h"
 #include <iomanip>
 
 #include "engine/error.h"
@@ -65,11 +67,6 @@ using gltf::GltfError;
 using gltftest::FixtureOptions;
 using gltftest::make_gltf;
 using nlohmann::json;
-
-std::string data_dir() {
-  if (const char* env = std::getenv("LIPMAP_DATA_DIR"); env && *env) return env;
-  return LIPMAP_DATA_DIR;
-}
 
 struct Mesh {
   std::string name;

@@ -20,6 +20,8 @@
 
 #include <gtest/gtest.h>
 
+#include "support/data_dir.h"
+
 #include <CGAL/Gmpq.h>
 
 #include "engine/cancel.h"
@@ -36,11 +38,6 @@ struct Mesh {
   std::vector<Triangle> f;
   std::vector<int> loop;
 };
-
-std::string data_dir() {
-  if (const char* env = std::getenv("LIPMAP_DATA_DIR"); env && *env) return env;
-  return LIPMAP_DATA_DIR;
-}
 
 // ---- independent checks --------------------------------------------------------------------------------
 

@@ -23,6 +23,8 @@
 
 #include <gtest/gtest.h>
 
+#include "support/data_dir.h"
+
 #include "engine/error.h"
 #include "engine/mesh_io.h"
 #include "engine/validate.h"
@@ -49,11 +51,6 @@ namespace {
 using mapcheck::check_map;
 using mapcheck::Report;
 using targetgen::Kind;
-
-std::string data_dir() {
-  if (const char* env = std::getenv("LIPMAP_DATA_DIR"); env && *env) return env;
-  return LIPMAP_DATA_DIR;
-}
 
 // ---- meshes -------------------------------------------------------------------------------------------
 

@@ -9,6 +9,8 @@
 
 #include <gtest/gtest.h>
 
+#include "support/data_dir.h"
+
 #include "engine/error.h"
 #include "engine/mesh_io.h"
 
@@ -16,11 +18,6 @@ namespace lipmap {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string data_dir() {
-  if (const char* env = std::getenv("LIPMAP_DATA_DIR"); env && *env) return env;
-  return LIPMAP_DATA_DIR;
-}
 
 std::string mesh_path(const std::string& name) { return data_dir() + "/meshes/" + name; }
 

@@ -14,6 +14,8 @@
 
 #include <gtest/gtest.h>
 
+#include "support/data_dir.h"
+
 #include "engine/classify.h"
 #include "engine/compose.h"
 #include "engine/intermediate_map.h"
@@ -36,11 +38,6 @@ int non_positive(const std::vector<Point2>& p, const std::vector<Triangle>& face
   int n = 0;
   for (const Triangle& t : faces) n += orientation(p[t[0]], p[t[1]], p[t[2]]) > 0 ? 0 : 1;
   return n;
-}
-
-std::string data_dir() {
-  if (const char* env = std::getenv("LIPMAP_DATA_DIR"); env && *env) return env;
-  return LIPMAP_DATA_DIR;
 }
 
 struct Case {

@@ -14,6 +14,8 @@
 
 #include <gtest/gtest.h>
 
+#include "support/data_dir.h"
+
 #include "engine/boundary_polygon.h"
 #include "engine/error.h"
 #include "engine/mesh_io.h"
@@ -23,11 +25,6 @@ namespace lipmap {
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-std::string data_dir() {
-  if (const char* env = std::getenv("LIPMAP_DATA_DIR"); env && *env) return env;
-  return LIPMAP_DATA_DIR;
-}
 
 std::string mesh_path(const std::string& name) { return data_dir() + "/meshes/" + name; }
 

@@ -39,4 +39,29 @@ inline std::vector<int> spike_turns(const std::vector<Pt>& p) {
   return spikes;
 }
 
+// One corner of a vertex's one-ring: the face (center, next, prev), counterclockwise, whose corner sweeps
+// from the ray towards `from` to the ray towards `to` (the images of next and prev, or points on those edges).
+struct FanCorner {
+  int next, prev;
+  Pt from, to;
+};
+
+// Full turns of the one-ring around an interior vertex (App. B): the corner sweeps chained from next to
+// prev, counted where they pass the first corner's `from` ray. 1 for a locally injective one-ring (positive
+// triangles can still wind twice, paper Fig. 1a); 0 when the corners do not close into one cycle.
+inline int fan_turns(const Pt& center, const std::vector<FanCorner>& fan) {
+  if (fan.empty()) return 0;
+  const Pt start = fan[0].from;
+  int at = fan[0].next, turns = 0;
+  for (std::size_t step = 0; step < fan.size(); ++step) {
+    const FanCorner* corner = nullptr;
+    for (const FanCorner& c : fan)
+      if (c.next == at) corner = &c;
+    if (!corner) return 0;
+    turns += extra_turn(center, start, corner->from, corner->to);
+    at = corner->prev;
+  }
+  return at == fan[0].next ? turns : 0;
+}
+
 }  // namespace lipmap::detail
