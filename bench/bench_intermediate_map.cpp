@@ -1,8 +1,8 @@
-// Benchmark of the intermediate-map stage (paper 4, 5.1) on the shared disk meshes: median over 5 runs of
+// Benchmark of the intermediate-map stage (paper 4, 5.1) on the test disk meshes (tests/data/meshes): median over 5 runs of
 // the factorization and the two-column solve, for tutte and harmonic, plus assembly, the exact flip check
 // and the whole stage.
 //
-//   bench_intermediate_map [DATA_DIR] [RUNS]      (DATA_DIR defaults to $LIPMAP_DATA_DIR or ../shared/data)
+//   bench_intermediate_map [DATA_DIR] [RUNS]      (DATA_DIR defaults to $LIPMAP_DATA_DIR or the repository's tests/data)
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
@@ -43,7 +43,7 @@ int main(int argc, char** argv) {
   std::string data = argc > 1 ? argv[1] : "";
   if (data.empty()) {
     const char* env = std::getenv("LIPMAP_DATA_DIR");
-    data = env && *env ? env : "../shared/data";
+    data = env && *env ? env : LIPMAP_DATA_DIR;
   }
   const int runs = argc > 2 ? std::max(1, std::atoi(argv[2])) : 5;
 

@@ -3,7 +3,7 @@
 //
 //   bench_pipeline [--quick] [--runs N] [--mesh NAME]... [--data DIR] [--budget-s S]
 //
-// Rows: every disk mesh of ../shared/data/meshes (DIR/meshes) with two generated targets
+// Rows: every disk mesh of tests/data/meshes (DIR/meshes) with two generated targets
 // (tests/support/target_generators.h): a circle, and a self-overlapping boundary by construction (exp_strip,
 // else power_map, cubic_map, bent_strip: the first the generator can certify for that mesh). Columns:
 // vertices, triangles, boundary vertices, inserted vertices, then the median over N runs (default 3;
@@ -71,12 +71,8 @@ using lipmap::Point3;
 using lipmap::Triangle;
 using lipmap::targetgen::Kind;
 
-// The shared data beside the repository (../shared/data), found from this file's own path.
-std::string default_data_dir() {
-  const std::string f = __FILE__;
-  const auto p = f.rfind("/bench/");
-  return p == std::string::npos ? std::string("../shared/data") : f.substr(0, p) + "/../shared/data";
-}
+// The repository's test data (tests/data), set by bench/CMakeLists.txt.
+std::string default_data_dir() { return LIPMAP_DATA_DIR; }
 
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 

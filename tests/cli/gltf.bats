@@ -1,5 +1,5 @@
 #!/usr/bin/env bats
-# `lipmap map` with glTF in and out (issue 5), the real binary. The shared disk meshes are converted to .glb /
+# `lipmap map` with glTF in and out (issue 5), the real binary. The test disk meshes (tests/data/meshes) are converted to .glb /
 # .gltf at test time (tests/tools/gltf_fixture.js, into a temp dir) and mapped onto a circle and onto
 # self-overlapping targets made by construction (a Tutte map followed by exp, certified by the fixture tool).
 # Every glTF lipmap writes must pass Khronos's validator with zero errors (tests/tools/gltf_validate.js) and the
@@ -15,7 +15,7 @@ setup_file() {
   ROOT="$(cd "$BATS_TEST_DIRNAME/../.." && pwd)"
   export ROOT
   export LIPMAP="${LIPMAP_BIN:-$ROOT/${LIPMAP_BUILD_DIR:-build}/server/lipmap}"
-  export MESHES="$ROOT/../shared/data/meshes"
+  export MESHES="$ROOT/tests/data/meshes"
   export TOOLS="$ROOT/tests/tools"
   export FIX="$BATS_FILE_TMPDIR"
   [ -x "$LIPMAP" ] || { echo "lipmap binary not found at $LIPMAP" >&2; return 1; }

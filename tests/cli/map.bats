@@ -1,5 +1,5 @@
 #!/usr/bin/env bats
-# `lipmap map`: the real binary on small hand-written meshes and on a shared mesh, its outputs (OBJ with vt,
+# `lipmap map`: the real binary on small hand-written meshes and on a test mesh, its outputs (OBJ with vt,
 # JSON answers validated against proto/parametrize-answer.schema.json, the SVG preview), --progress, and
 # its exit codes and one-line errors.
 # Needs: jq, node with the dev dependencies of package.json (scripts/test.sh installs them), and a built
@@ -10,7 +10,7 @@ bats_require_minimum_version 1.5.0
 setup() {
   ROOT="$(cd "$BATS_TEST_DIRNAME/../.." && pwd)"
   LIPMAP="${LIPMAP_BIN:-$ROOT/${LIPMAP_BUILD_DIR:-build}/server/lipmap}"
-  SHARED="${LIPMAP_DATA_DIR:-$ROOT/../shared/data}"
+  MESHES="$ROOT/tests/data/meshes"
   [ -x "$LIPMAP" ] || { echo "lipmap binary not found at $LIPMAP (build first, or set LIPMAP_BIN)" >&2; return 1; }
   T="$BATS_TEST_TMPDIR"
   # A square pyramid: boundary 0 1 2 3 (counterclockwise seen from above), apex 4.
@@ -144,12 +144,11 @@ expect_error() {
   grep -q '^lipmap: done: verdict simple, 5 vertices (0 inserted), 4 triangles' <<<"$stderr"
 }
 
-@test "a shared mesh (nefertiti) onto a circle, both methods" {
-  [ -f "$SHARED/meshes/nefertiti.off" ] || skip "no shared data at $SHARED"
+@test "a test mesh (nefertiti) onto a circle, both methods" {
   # 34 boundary vertices on the unit circle.
   jq -n '{positions: [range(34) | [((. * 2 * 3.141592653589793 / 34) | cos), ((. * 2 * 3.141592653589793 / 34) | sin)]]}' >"$T/circle.json"
   for method in harmonic tutte; do
-    lipmap map "$SHARED/meshes/nefertiti.off" --boundary "$T/circle.json" -o "$T/out.json" --method "$method" --target-density 0.5
+    lipmap map "$MESHES/nefertiti.off" --boundary "$T/circle.json" -o "$T/out.json" --method "$method" --target-density 0.5
     [ "$status" -eq 0 ] || { echo "$method: $stderr" >&2; return 1; }
     validates parametrize-answer.schema.json "$T/out.json"
     [ "$(jq -r .verdict "$T/out.json")" = simple ]

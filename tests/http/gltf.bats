@@ -3,7 +3,7 @@
 # (model/gltf-binary and model/gltf+json bodies with boundary=texcoord:N, multipart/form-data with parts model
 # and boundary, the JSON envelope with gltf_base64), answers by Accept (model/gltf-binary, model/gltf+json, or
 # the JSON answer), jobs, and bad glTF answered with a 4xx problem while the server keeps serving. Inputs are
-# the shared disk meshes converted at test time (tests/tools/gltf_fixture.js); every glTF answer passes
+# the test disk meshes converted at test time (tests/tools/gltf_fixture.js); every glTF answer passes
 # Khronos's validator and tests/tools/gltf_check_map.js (DESIGN.md section 2 on the float32 uv as stored).
 
 bats_require_minimum_version 1.5.0
@@ -12,7 +12,7 @@ load helpers/server
 setup_file() {
   require_tools
   [ -d "$HTTP_ROOT/node_modules/gltf-validator" ] || { echo "npm ci first (gltf-validator)" >&2; return 1; }
-  export TOOLS="$HTTP_ROOT/tests/tools" MESHES="$HTTP_ROOT/../shared/data/meshes" FIX="$BATS_FILE_TMPDIR"
+  export TOOLS="$HTTP_ROOT/tests/tools" MESHES="$HTTP_ROOT/tests/data/meshes" FIX="$BATS_FILE_TMPDIR"
   local m
   for m in nefertiti.off woody.obj blob.off; do
     node "$TOOLS/gltf_fixture.js" model "$MESHES/$m" "$FIX/${m%.*}.glb"

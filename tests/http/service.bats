@@ -127,8 +127,7 @@ teardown() {
 }
 
 @test "parametrize: a real mesh (nefertiti.off, 562 triangles) onto a circle" {
-  mesh="$HTTP_ROOT/../shared/data/meshes/nefertiti.off"
-  [ -f "$mesh" ] || skip "shared test meshes not present"
+  mesh="$HTTP_ROOT/tests/data/meshes/nefertiti.off"
   req="$(make_body nefertiti mesh "$mesh" circle)"
   call POST "$MAIN_URL/v1/parametrize" --json "@$req"
   expect 200

@@ -1,5 +1,5 @@
 // glTF test inputs made at test time from a triangle mesh (tests only): a writer of its own (nlohmann JSON +
-// little-endian bytes), sharing no code with server/gltf_codec.cpp or tinygltf, so that the codec reads
+// little-endian bytes), sharing no code with server/codec/gltf_codec.cpp or tinygltf, so that the codec reads
 // documents it did not write itself. Also the float32 helpers the glTF tests check with.
 //
 // make_gltf(vertices, faces, options, binary) writes a document with:

@@ -1,4 +1,4 @@
-// proto/ embedded into the binary at build time (server/embed_proto.cmake writes the definitions), so that
+// proto/ embedded into the binary at build time (server/http/embed_proto.cmake writes the definitions), so that
 // `lipmap serve` answers GET /v1/openapi.json and the JSON Schemas it references without any file beside it.
 #pragma once
 

@@ -1,4 +1,4 @@
-#include "server/http_server.h"
+#include "server/http/http_server.h"
 
 #include <algorithm>
 #include <atomic>
@@ -29,14 +29,14 @@
 #include "engine/error.h"
 #include "engine/pipeline.h"
 #include "engine/validate.h"
-#include "server/gltf_codec.h"
-#include "server/job_store.h"
-#include "server/json_codec.h"
-#include "server/metrics.h"
-#include "server/proto_embedded.h"
-#include "server/worker_pool.h"
+#include "server/codec/gltf_codec.h"
+#include "server/http/job_store.h"
+#include "server/codec/json_codec.h"
+#include "server/http/metrics.h"
+#include "server/http/proto_embedded.h"
+#include "server/http/worker_pool.h"
 
-#include "server/svg_preview.h"
+#include "server/codec/svg_preview.h"
 
 // Last: with its OpenSSL support cpp-httplib pulls in <resolv.h>, whose `_res` macro breaks Eigen's headers.
 #include <httplib.h>

@@ -53,7 +53,7 @@
 #include "engine/disk_mesh.h"
 #include "engine/error.h"
 #include "engine/geometry.h"
-#include "server/json_codec.h"
+#include "server/codec/json_codec.h"
 
 namespace lipmap {
 struct RefinedMap;         // engine/refine.h

@@ -28,7 +28,7 @@
 #include "engine/error.h"
 #include "engine/mesh_io.h"
 #include "engine/validate.h"
-#include "server/json_codec.h"
+#include "server/codec/json_codec.h"
 #include "support/map_checker.h"
 #include "support/target_generators.h"
 

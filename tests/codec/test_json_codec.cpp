@@ -6,7 +6,7 @@
 
 #include <gtest/gtest.h>
 
-#include "server/json_codec.h"
+#include "server/codec/json_codec.h"
 
 namespace {
 

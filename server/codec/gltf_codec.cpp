@@ -1,7 +1,7 @@
 // glTF in and out (see gltf_codec.h for the conventions). tinygltf (Debian's shared library) parses and
 // serializes the document; every accessor of the selected primitive is read and bounds-checked here, and the
 // refined primitive is written here, so that nothing of the primitive depends on tinygltf's own checks.
-#include "server/gltf_codec.h"
+#include "server/codec/gltf_codec.h"
 
 #include <tiny_gltf.h>
 

@@ -1,4 +1,4 @@
-#include "server/svg_preview.h"
+#include "server/codec/svg_preview.h"
 
 #include <algorithm>
 #include <cmath>
@@ -8,7 +8,7 @@
 #include "engine/error.h"
 #include "engine/flip_check.h"
 #include "engine/pipeline.h"
-#include "server/json_codec.h"
+#include "server/codec/json_codec.h"
 
 namespace lipmap::preview {
 

@@ -2,7 +2,7 @@
 #include <cstdio>
 #include <iostream>
 
-#include "server/cli.h"
+#include "server/app/cli.h"
 
 int main(int argc, char** argv) {
   try {

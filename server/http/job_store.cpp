@@ -1,4 +1,4 @@
-#include "server/job_store.h"
+#include "server/http/job_store.h"
 
 #include <algorithm>
 #include <array>

@@ -1,4 +1,4 @@
-#include "server/serve_command.h"
+#include "server/app/serve_command.h"
 
 #include <pthread.h>
 #include <signal.h>
@@ -14,7 +14,7 @@
 #include <spdlog/sinks/stdout_sinks.h>
 #include <spdlog/spdlog.h>
 
-#include "server/cli.h"
+#include "server/app/cli.h"
 
 namespace lipmap::cli {
 

@@ -1,4 +1,4 @@
-// glTF in and out (server/gltf_codec.h, issue 5).
+// glTF in and out (server/codec/gltf_codec.h, issue 5).
 //
 // Suites:
 //   GltfFormat     media types, extensions, sniffing, Accept negotiation, base64
@@ -40,8 +40,8 @@
 #include "engine/flip_check.h"
 #include "engine/mesh_io.h"
 #include "engine/refine.h"
-#include "server/gltf_codec.h"
-#include "server/json_codec.h"
+#include "server/codec/gltf_codec.h"
+#include "server/codec/json_codec.h"
 #include "support/gltf_fixtures.h"
 #include "support/map_checker.h"
 #include "support/target_generators.h"

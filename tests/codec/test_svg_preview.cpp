@@ -1,4 +1,4 @@
-// The SVG preview of a map (server/svg_preview.h): well-formed XML (parsed here by a small strict parser),
+// The SVG preview of a map (server/codec/svg_preview.h): well-formed XML (parsed here by a small strict parser),
 // SVG 1.1 root with a viewBox fitted to the uv bounding box and y up, one polygon per triangle, non-positive
 // triangles in red, the outline, inserted and singular vertices marked, the caption escaped.
 #include <cctype>
@@ -16,7 +16,7 @@
 
 #include "engine/error.h"
 #include "engine/pipeline.h"
-#include "server/svg_preview.h"
+#include "server/codec/svg_preview.h"
 
 namespace lipmap {
 namespace {

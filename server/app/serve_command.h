@@ -5,7 +5,7 @@
 #include <iosfwd>
 #include <string>
 
-#include "server/http_server.h"
+#include "server/http/http_server.h"
 
 namespace CLI {
 class App;

@@ -1,4 +1,4 @@
-#include "server/json_codec.h"
+#include "server/codec/json_codec.h"
 
 #include <algorithm>
 #include <climits>

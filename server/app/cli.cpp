@@ -1,4 +1,4 @@
-#include "server/cli.h"
+#include "server/app/cli.h"
 
 #include <cerrno>
 #include <cstring>
@@ -23,10 +23,10 @@
 #include "engine/classify.h"
 #include "engine/error.h"
 #include "engine/mesh_io.h"
-#include "server/gltf_codec.h"
-#include "server/json_codec.h"
-#include "server/svg_preview.h"
-#include "server/serve_command.h"
+#include "server/codec/gltf_codec.h"
+#include "server/codec/json_codec.h"
+#include "server/codec/svg_preview.h"
+#include "server/app/serve_command.h"
 
 namespace lipmap::cli {
 
