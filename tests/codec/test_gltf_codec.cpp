@@ -33,7 +33,7 @@
 
 #include <gtest/gtest.h>
 
-#include "support/data_dir.h"
+#include "tests/support/data_dir.h"
 #include <iomanip>
 
 #include "engine/error.h"
@@ -42,9 +42,9 @@
 #include "engine/refine.h"
 #include "server/codec/gltf_codec.h"
 #include "server/codec/json_codec.h"
-#include "support/gltf_fixtures.h"
-#include "support/map_checker.h"
-#include "support/target_generators.h"
+#include "tests/support/gltf_fixtures.h"
+#include "tests/support/map_checker.h"
+#include "tests/support/target_generators.h"
 
 #if defined(__has_include)
 #if __has_include("engine/pipeline.cpp")
@@ -163,7 +163,7 @@ public:
 // Runs tests/tools/gltf_validate.js on the files; fails the test on any error. Returns false (and says why)
 // when the validator is not installed.
 bool khronos_validates(const std::vector<std::string>& files) {
-  const std::string root = LIPMAP_SOURCE_DIR;
+  const std::string root = source_dir();
   if (!std::filesystem::exists(root + "/node_modules/gltf-validator/package.json") ||
       std::system("command -v node >/dev/null 2>&1") != 0) {
     std::cout << "[ note ] Khronos glTF validator not installed (npm ci): " << files.size() << " file(s) not validated\n";

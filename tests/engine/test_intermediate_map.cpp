@@ -20,7 +20,7 @@
 
 #include <gtest/gtest.h>
 
-#include "support/data_dir.h"
+#include "tests/support/data_dir.h"
 
 #include <CGAL/Gmpq.h>
 

@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "support/data_dir.h"
+#include "tests/support/data_dir.h"
 
 #include "engine/error.h"
 #include "engine/mesh_io.h"

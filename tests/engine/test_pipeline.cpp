@@ -23,14 +23,14 @@
 
 #include <gtest/gtest.h>
 
-#include "support/data_dir.h"
+#include "tests/support/data_dir.h"
 
 #include "engine/error.h"
 #include "engine/mesh_io.h"
 #include "engine/validate.h"
 #include "server/codec/json_codec.h"
-#include "support/map_checker.h"
-#include "support/target_generators.h"
+#include "tests/support/map_checker.h"
+#include "tests/support/target_generators.h"
 
 #if defined(__has_include)
 #if __has_include("engine/pipeline.cpp")

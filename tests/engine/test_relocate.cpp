@@ -14,7 +14,7 @@
 
 #include <gtest/gtest.h>
 
-#include "support/data_dir.h"
+#include "tests/support/data_dir.h"
 
 #include "engine/classify.h"
 #include "engine/compose.h"
@@ -23,7 +23,7 @@
 #include "engine/relocate.h"
 #include "engine/target_mesh.h"
 #include "engine/validate.h"
-#include "support/target_generators.h"
+#include "tests/support/target_generators.h"
 
 namespace lipmap {
 namespace {

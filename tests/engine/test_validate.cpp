@@ -14,7 +14,7 @@
 
 #include <gtest/gtest.h>
 
-#include "support/data_dir.h"
+#include "tests/support/data_dir.h"
 
 #include "engine/boundary_polygon.h"
 #include "engine/error.h"

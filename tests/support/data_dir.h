@@ -1,15 +1,16 @@
-// Where the shared test data lives: $LIPMAP_DATA_DIR, else ../shared/data beside the source tree (set by
-// tests/CMakeLists.txt).
+// Where the test data lives: the repository's tests/data (tests/support/data_dir.cpp), or $LIPMAP_DATA_DIR.
+// The paths are compiled into one small translation unit only, so that the other test sources do not depend
+// on where the checkout is (ccache hits across worktrees and clones).
 #pragma once
 
-#include <cstdlib>
 #include <string>
 
 namespace lipmap {
 
-inline std::string data_dir() {
-  if (const char* env = std::getenv("LIPMAP_DATA_DIR"); env && *env) return env;
-  return LIPMAP_DATA_DIR;
-}
+// $LIPMAP_DATA_DIR when set, else <source>/tests/data.
+std::string data_dir();
+
+// The repository's root (the folder with CMakeLists.txt, proto/, tests/).
+std::string source_dir();
 
 }  // namespace lipmap
