@@ -48,12 +48,9 @@
 #include "engine/cancel.h"
 #include "engine/flip_check.h"
 #include "engine/geometry.h"
+#include "engine/parametrize_options.h"  // MapMethod
 
 namespace lipmap {
-
-enum class MapMethod { tutte, harmonic };
-
-const char* to_string(MapMethod method);
 
 // Which system produced DiskMap::uv.
 enum class DiskMapSolution { primary, mean_value, tutte };

@@ -13,18 +13,13 @@
 #include "engine/disk_mesh.h"
 #include "engine/error.h"
 #include "engine/intermediate_map.h"
+#include "engine/parametrize_options.h"
 #include "engine/quality.h"
 #include "engine/refine.h"
 #include "engine/relocate.h"
 #include "engine/verify.h"
 
 namespace lipmap {
-
-struct ParametrizeOptions {
-  MapMethod method = MapMethod::harmonic;
-  bool refine = true;           // false: the vertex-wise map only (may have flips; reported, never verified)
-  double target_density = 1.0;  // target mesh triangles ~ density * source triangles
-};
 
 enum class Stage { validate, classify, target_mesh, intermediate_maps, compose, refine, verify, quality };
 const char* to_string(Stage stage);

@@ -25,12 +25,16 @@
 #include "engine/mesh_io.h"
 #include "server/codec/gltf_codec.h"
 #include "server/codec/json_codec.h"
+#include "server/codec/request_loader.h"
 #include "server/codec/svg_preview.h"
 #include "server/app/serve_command.h"
 
 namespace lipmap::cli {
 
 namespace {
+
+// The CMake project version (server/CMakeLists.txt passes PROJECT_VERSION).
+constexpr const char* kVersion = LIPMAP_VERSION;
 
 // One line, whatever the message holds: control characters (a newline in an engine message, say)
 // become spaces.
@@ -88,11 +92,6 @@ std::string where(const std::optional<std::string>& pointer) {
   return *pointer + ": ";
 }
 
-[[maybe_unused]] int not_implemented(const std::string& what, const std::string& coming_with, std::ostream& err) {
-  error_line(err, "not_implemented", "'lipmap " + what + "' is not implemented yet (it comes with " + coming_with + ")");
-  return kExitUsageError;
-}
-
 }  // namespace
 
 int classify_command(const std::string& file, bool pretty, std::istream& in, std::ostream& out, std::ostream& err) {
@@ -132,7 +131,7 @@ std::string lower_extension(const std::string& path) {
 
 // An InputError about the boundary, when the boundary came from its own file: "/boundary/positions/3" ->
 // "/positions/3" in that file.
-[[maybe_unused]] std::string map_error_location(const InputError& e, bool boundary_from_file, const std::string& boundary_file,
+std::string map_error_location(const InputError& e, bool boundary_from_file, const std::string& boundary_file,
                                bool mesh_from_json, const std::string& mesh_file) {
   const std::optional<std::string> pointer = codec::parametrize_error_pointer(e);
   if (!pointer || pointer->empty()) return {};
@@ -155,7 +154,7 @@ private:
   int exit_code_;
 };
 
-[[maybe_unused]] void write_text_file(const std::string& path, const std::string& text) {
+void write_text_file(const std::string& path, const std::string& text) {
   std::ofstream file(path, std::ios::binary | std::ios::trunc);
   if (!file) throw MapFailure("output_file_unwritable", "cannot create '" + path + "': " + std::strerror(errno), kExitInputError);
   file << text;
@@ -163,7 +162,7 @@ private:
   if (!file) throw MapFailure("output_file_unwritable", "cannot write '" + path + "'", kExitInputError);
 }
 
-[[maybe_unused]] std::string fmt_ms(double ms) {
+std::string fmt_ms(double ms) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.1f ms", ms);
   return buf;
@@ -188,58 +187,27 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
     return kExitUsageError;
   }
   try {
-    // ---- inputs ----
-    RawMesh mesh;
-    RawBoundary boundary;
-    ParametrizeOptions options;  // engine defaults (method harmonic)
-    // glTF in (.glb / .gltf, server/gltf_codec.h): the selected primitive; --boundary texcoord:N pins the
-    // boundary to its TEXCOORD_N. glTF out: the input document (or a fresh one) with the refined primitive.
-    std::optional<gltf::Asset> gltf_asset;
-    std::optional<int> texcoord_boundary;
-    const std::optional<gltf::Format> gltf_in = gltf::format_from_path(args.mesh_file);
-    if (boundary_from_file) texcoord_boundary = gltf::parse_texcoord_spec(args.boundary_file);
-    if (texcoord_boundary && !gltf_in)
+    // ---- inputs (server/codec/request_loader.h) ----
+    // --boundary texcoord:N pins the boundary to the glTF primitive's TEXCOORD_N: a usage error without glTF.
+    if (boundary_from_file && gltf::parse_texcoord_spec(args.boundary_file) && !gltf::format_from_path(args.mesh_file))
       throw MapFailure("usage", "--boundary texcoord:N needs a .glb or .gltf MESH", kExitUsageError);
-    if (gltf_in) {
-      gltf::Selection selection;
-      selection.mesh = args.gltf_mesh;
-      selection.primitive = args.gltf_primitive;
-      selection.weld = args.weld == "position" ? gltf::Weld::position : gltf::Weld::none;
-      gltf_asset = gltf::Asset::read(read_all(args.mesh_file, std::cin), selection, gltf_in);
-      mesh = gltf_asset->mesh();
-      if (texcoord_boundary) boundary = gltf_asset->texcoord_boundary(*texcoord_boundary);
-    } else if (mesh_from_json) {
-      try {
-        const nlohmann::json body = codec::parse_json(read_all(args.mesh_file, std::cin));
-        // The body's boundary is required by the request's shape; with --boundary it is still parsed
-        // (a body must be a valid request), then replaced.
-        codec::ParametrizeRequest request = codec::parametrize_request_from_json(body);
-        mesh = std::move(request.mesh);
-        boundary = std::move(request.boundary);
-        options = codec::engine_options(request.options);
-        // The codec fills an absent "method" with its own default; the engine's default applies instead.
-        const auto o = body.find("options");
-        if (o == body.end() || !o->is_object() || !o->contains("method")) options.method = MapMethod::harmonic;
-      } catch (const codec::JsonError& e) {
-        throw MapFailure(e.code(), args.mesh_file + ": " + (e.pointer().empty() ? "" : e.pointer() + ": ") + e.what(),
-                         kExitInputError);
-      }
-    } else {
-      mesh = read_mesh_file(args.mesh_file);
-    }
-    if (boundary_from_file && !texcoord_boundary) {
-      try {
-        boundary = codec::boundary_from_json(codec::parse_json(read_all(args.boundary_file, std::cin)));
-      } catch (const codec::JsonError& e) {
-        throw MapFailure(e.code(),
-                         args.boundary_file + ": " + (e.pointer().empty() ? "" : e.pointer() + ": ") + e.what(),
-                         kExitInputError);
-      }
-    }
-    if (args.method == "tutte") options.method = MapMethod::tutte;
-    else if (args.method == "harmonic") options.method = MapMethod::harmonic;
-    if (args.no_refine) options.refine = false;
-    if (args.target_density > 0) options.target_density = args.target_density;
+    codec::RequestInput input;
+    input.file = args.mesh_file;
+    input.read_file = [](const std::string& file) { return read_all(file, std::cin); };
+    input.boundary_file = args.boundary_file;
+    gltf::Selection selection;
+    selection.mesh = args.gltf_mesh;
+    selection.primitive = args.gltf_primitive;
+    selection.weld = args.weld == "position" ? gltf::Weld::position : gltf::Weld::none;
+    input.gltf_selection = selection;
+    if (args.method == "tutte") input.overrides.method = MapMethod::tutte;
+    else if (args.method == "harmonic") input.overrides.method = MapMethod::harmonic;
+    if (args.no_refine) input.overrides.refine = false;
+    if (args.target_density > 0) input.overrides.target_density = args.target_density;
+    codec::LoadedRequest loaded = codec::load_request(input);
+    const RawMesh& mesh = loaded.request.mesh;
+    const RawBoundary& boundary = loaded.request.boundary;
+    const ParametrizeOptions& options = loaded.request.options;
 
     // ---- the pipeline ----
     std::mutex progress_mutex;
@@ -285,7 +253,7 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
 
     // ---- outputs ----
     if (out_ext == "glb" || out_ext == "gltf") {
-      const gltf::Asset asset = gltf_asset ? *gltf_asset : gltf::Asset::from_mesh(mesh);
+      const gltf::Asset asset = loaded.asset ? *loaded.asset : gltf::Asset::from_mesh(mesh);
       write_text_file(args.output_file,
                       gltf::write_answer(asset, result, out_ext == "glb" ? gltf::Format::glb : gltf::Format::gltf));
     } else if (out_ext == "obj") {
@@ -328,6 +296,7 @@ int run(int argc, const char* const* argv, std::istream& in, std::ostream& out, 
     CLI::App app{"lipmap: locally injective parametrization of disk meshes onto self-overlapping boundaries",
                  "lipmap"};
     app.require_subcommand(1);
+    app.set_version_flag("--version", std::string("lipmap ") + kVersion, "Print the version (lipmap X.Y.Z) and exit");
 
     std::string classify_file;
     bool pretty = false;
@@ -387,6 +356,9 @@ int run(int argc, const char* const* argv, std::istream& in, std::ostream& out, 
       return kExitOk;
     } catch (const CLI::CallForAllHelp&) {
       out << app.help("", CLI::AppFormatMode::All);
+      return kExitOk;
+    } catch (const CLI::CallForVersion& e) {
+      out << e.what() << '\n';
       return kExitOk;
     } catch (const CLI::ParseError& e) {
       std::string message = e.what();

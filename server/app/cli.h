@@ -1,4 +1,4 @@
-// The lipmap command line: `lipmap classify FILE`, `lipmap map MESH ...`, and `lipmap serve`.
+// The lipmap command line: `lipmap classify FILE`, `lipmap map MESH ...`, `lipmap serve`, and `lipmap --version`.
 // Everything JSON goes through json_codec; everything else is the engine's.
 #pragma once
 
@@ -11,7 +11,7 @@ namespace lipmap::cli {
 enum ExitCode : int {
   kExitOk = 0,
   kExitInputError = 1,     // unreadable file, malformed JSON, wrong shape, InputError from the engine
-  kExitUsageError = 2,     // bad command line; also a subcommand that is not implemented yet
+  kExitUsageError = 2,     // bad command line
   kExitInternalError = 3,  // a bug or resource exhaustion: InternalError, bad_alloc, anything unexpected
 };
 
@@ -41,7 +41,7 @@ struct MapArgs {
   std::string preview_file;    // empty: none
   bool progress = false;
   bool pretty = false;
-  // glTF MESH (.glb / .gltf, server/gltf_codec.h): which primitive, and whether to weld split vertices.
+  // glTF MESH (.glb / .gltf, server/codec/gltf_codec.h): which primitive, and whether to weld split vertices.
   // BOUNDARY may then also be texcoord:N; OUT may be .glb / .gltf (for any MESH).
   int gltf_mesh = 0;
   int gltf_primitive = 0;

@@ -1,4 +1,4 @@
-// The lipmap binary: subcommands classify / map / serve over the same engine (see server/cli.h).
+// The lipmap binary: subcommands classify / map / serve over the same engine (see server/app/cli.h).
 #include <cstdio>
 #include <iostream>
 

@@ -1,7 +1,8 @@
-// glTF 2.0 in and out (issue 5): reads one triangle primitive of a .glb / .gltf (embedded buffers only) into
-// the engine's RawMesh, and writes the refined, uv-mapped mesh back into the same document. tinygltf stays in
-// gltf_codec.cpp (Debian's libtinygltf is a shared library with the implementation: never define
-// TINYGLTF_IMPLEMENTATION).
+// glTF 2.0 in and out: reads one triangle primitive of a .glb / .gltf (embedded buffers only) into the
+// engine's RawMesh, and writes the refined, uv-mapped mesh back into the same document. The implementation,
+// by concern: gltf_format.cpp (media types, sniffing, GLB and JSON checks), gltf_read.cpp (accessors,
+// Asset::read, weld, texcoord boundary), gltf_write.cpp (Asset::write, attributes of inserted vertices,
+// answers), gltf_request.cpp (request forms, base64); tinygltf stays behind gltf_internal.h.
 //
 // Conventions (also in proto/openapi.json and README.md):
 //   * uv: lipmap's uv plane has v pointing up and positive (counterclockwise) triangles; glTF's texture space
@@ -10,13 +11,14 @@
 //     and reads TEXCOORD_N for boundary=texcoord:N back as (u, v) = (s, 1 - t). A uv triangle that is
 //     counterclockwise in lipmap's plane is clockwise in (s, t); a chart drawn in [0,1]^2 stays in [0,1]^2.
 //     Round trip: fl32(1 - (1 - t)) == t for every float t with |t| >= 2^-29 or t == 0.
-//   * float32: the written map is checked as stored: every triangle strictly clockwise in the float (s, t)
-//     AND strictly counterclockwise in (s, 1 - t) evaluated in double, both by CGAL's exact predicate, and
-//     every interior vertex's angles summing to 2 pi; boundary TEXCOORD_0 is exactly the float32 of the
-//     targets. Where plain rounding breaks a triangle, its interior corners may first move to a neighbouring
-//     float (at most 2 ulps in s and t; counted in extras.lipmap.float32_adjusted_vertices) when that makes
-//     every triangle around them valid. If the map still fails, write() throws Float32RoundingError (an
-//     InternalError: HTTP 500, CLI exit 3) and writes nothing.
+//   * float32 (engine/float32_uv.h): the written map is checked as stored: every triangle strictly clockwise
+//     in the float (s, t) AND strictly counterclockwise in (s, 1 - t) evaluated in double, both by the exact
+//     orientation predicate, and the one-ring of every interior vertex turning exactly once (exact turn
+//     counting); boundary TEXCOORD_0 is exactly the float32 of the targets. Where plain rounding breaks a
+//     triangle, its interior corners may first move to a neighbouring float (at most 2 ulps in s and t;
+//     counted in extras.lipmap.float32_adjusted_vertices) when that makes every triangle around them valid.
+//     If the map still fails, write() throws Float32RoundingError (an InternalError: HTTP 500, CLI exit 3)
+//     and writes nothing.
 //   * seams: glTF splits vertices at seams (hard normals, uv seams). Weld::none (default) maps the primitive's
 //     vertices as they are: a primitive split at seams has several boundary loops (or pieces) and is refused
 //     with the validate stage's code (multiple_boundary_loops, not_connected, ...), with a hint to weld.
@@ -50,9 +52,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "engine/disk_mesh.h"
 #include "engine/error.h"
 #include "engine/geometry.h"
+#include "engine/raw_mesh.h"
 #include "server/codec/json_codec.h"
 
 namespace lipmap {
@@ -103,11 +105,12 @@ private:
   std::string gltf_pointer_;
 };
 
-// The float32 uv would not be a locally injective map (a triangle flipped or degenerate, or an angle sum off).
+// The float32 uv would not be a locally injective map (a triangle flipped or degenerate, or a one-ring that
+// does not turn once).
 class Float32RoundingError : public InternalError {
 public:
   Float32RoundingError(const std::string& message, int face) : InternalError(message), face_(face) {}
-  int face() const { return face_; }  // output face index (-1: an angle sum)
+  int face() const { return face_; }  // output face index (-1: a one-ring)
 
 private:
   int face_;

@@ -358,14 +358,6 @@ ordered_json classify_request_to_json(const BoundaryPolygon& polygon) {
 
 // ---- parametrize request ---------------------------------------------------------------------------------
 
-const char* to_string(MapMethod method) {
-  switch (method) {
-    case MapMethod::tutte: return "tutte";
-    case MapMethod::harmonic: return "harmonic";
-  }
-  return "tutte";
-}
-
 namespace {
 RawBoundary read_boundary(const json& value, const Path& boundary_at) {
   const json& boundary = object(value, boundary_at, {"vertices", "positions", "rotation_indices"});
@@ -624,14 +616,6 @@ ordered_json boundary_to_json(const RawBoundary& boundary) {
   out["positions"] = ordered_json::array();
   for (const Point2& p : boundary.positions) out["positions"].push_back({p.x, p.y});
   if (boundary.rotation_indices) out["rotation_indices"] = *boundary.rotation_indices;
-  return out;
-}
-
-lipmap::ParametrizeOptions engine_options(const ParametrizeOptions& options) {
-  lipmap::ParametrizeOptions out;
-  out.method = options.method == MapMethod::tutte ? lipmap::MapMethod::tutte : lipmap::MapMethod::harmonic;
-  out.refine = options.refine;
-  out.target_density = options.target_density;
   return out;
 }
 

@@ -13,12 +13,12 @@
 
 #include "engine/boundary_polygon.h"
 #include "engine/classify.h"
-#include "engine/disk_mesh.h"
 #include "engine/error.h"
+#include "engine/parametrize_options.h"
+#include "engine/raw_mesh.h"
 
 namespace lipmap {
-struct ParametrizeOptions;  // engine/pipeline.h (kept out of this header: it pulls in Eigen)
-struct ParametrizeResult;
+struct ParametrizeResult;  // engine/pipeline.h (kept out of this header: it pulls in Eigen)
 }  // namespace lipmap
 
 namespace lipmap::codec {
@@ -76,14 +76,11 @@ nlohmann::ordered_json classify_request_to_json(const BoundaryPolygon& polygon);
 //  "options": {"method": "harmonic" (default) | "tutte", "refine": bool, "target_density": number > 0}?}
 // Faces may have any number of corners and indices any integer value here: validate_mesh names those
 // faults (face_not_triangle, face_index_out_of_range) with the engine's codes.
-enum class MapMethod { tutte, harmonic };
-const char* to_string(MapMethod method);
-
-struct ParametrizeOptions {
-  MapMethod method = MapMethod::harmonic;  // issue 3 and the engine: harmonic by default
-  bool refine = true;
-  double target_density = 1.0;  // target-mesh density relative to the source's
-};
+// The options are the engine's own (engine/parametrize_options.h; harmonic by default).
+// Transitional: the names below let server/http compile until it uses lipmap::MapMethod and
+// lipmap::ParametrizeOptions directly; they are aliases, not a second definition.
+using MapMethod = lipmap::MapMethod;
+using ParametrizeOptions = lipmap::ParametrizeOptions;
 
 struct ParametrizeRequest {
   RawMesh mesh;
@@ -100,8 +97,8 @@ nlohmann::ordered_json parametrize_request_to_json(const ParametrizeRequest& req
 RawBoundary boundary_from_json(const nlohmann::json& boundary);
 nlohmann::ordered_json boundary_to_json(const RawBoundary& boundary);
 
-// The engine's options for a parsed request (the codec's own enum maps one to one onto the engine's).
-lipmap::ParametrizeOptions engine_options(const ParametrizeOptions& options);
+// Transitional (see MapMethod above): the options unchanged.
+inline const lipmap::ParametrizeOptions& engine_options(const lipmap::ParametrizeOptions& options) { return options; }
 
 // ---- parametrize answer (200 of POST /v1/parametrize, GET /v1/jobs/{id}/result, `lipmap map -o X.json`) --
 // proto/parametrize-answer.schema.json:

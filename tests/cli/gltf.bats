@@ -1,5 +1,5 @@
 #!/usr/bin/env bats
-# `lipmap map` with glTF in and out (issue 5), the real binary. The test disk meshes (tests/data/meshes) are converted to .glb /
+# `lipmap map` with glTF in and out, the real binary. The test disk meshes (tests/data/meshes) are converted to .glb /
 # .gltf at test time (tests/tools/gltf_fixture.js, into a temp dir) and mapped onto a circle and onto
 # self-overlapping targets made by construction (a Tutte map followed by exp, certified by the fixture tool).
 # Every glTF lipmap writes must pass Khronos's validator with zero errors (tests/tools/gltf_validate.js) and the

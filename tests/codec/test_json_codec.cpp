@@ -264,7 +264,7 @@ TEST(JsonCodecParametrizeRequest, ParsesTheDesignShape) {
 
 TEST(JsonCodecParametrizeRequest, DefaultsWithoutOptions) {
   auto r = codec::parametrize_request_from_json(codec::parse_json(parametrize_body()));
-  EXPECT_EQ(r.options.method, codec::MapMethod::harmonic);  // DESIGN.md 4 and issue 3: harmonic is the default
+  EXPECT_EQ(r.options.method, codec::MapMethod::harmonic);  // DESIGN.md 4: harmonic is the default
   EXPECT_TRUE(r.options.refine);
   EXPECT_EQ(r.options.target_density, 1.0);
   EXPECT_FALSE(r.boundary.vertices.has_value());
