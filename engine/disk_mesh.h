@@ -5,18 +5,11 @@
 #include <optional>
 #include <vector>
 
-#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
-
 #include "engine/boundary_polygon.h"
 #include "engine/geometry.h"
+#include "engine/mesh_topology.h"
 
 namespace lipmap {
-
-struct MeshTraits : public OpenMesh::DefaultTraits {
-  using Point = OpenMesh::Vec3d;
-  using Normal = OpenMesh::Vec3d;
-};
-using TriMesh = OpenMesh::TriMesh_ArrayKernelT<MeshTraits>;
 
 // Mesh as it arrives (JSON arrays or a file), before any check. Indices are wide so that out-of-range
 // and negative values survive until validate can name them.
@@ -29,7 +22,7 @@ struct DiskMesh {
   std::vector<Point3> vertices;        // index i is input vertex i
   std::vector<Triangle> faces;         // index f is input face f, corners as given
   std::vector<int> boundary_loop;      // interior on the left (face orientation), starts at lowest index
-  TriMesh mesh;                        // same vertices and faces, for the stages that walk the mesh
+  MeshTopology topology;               // of `faces`, built by validate; the stages after it read it
 };
 
 // Boundary positions as they arrive: positions[k] is the image of the k-th boundary vertex, in the order
