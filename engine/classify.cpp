@@ -14,13 +14,12 @@
 
 #include <algorithm>
 #include <chrono>
-#include <map>
 #include <numeric>
 #include <string>
 
 #include "engine/detail/ear_reduction.h"
-#include "engine/detail/plane_angles.h"
-#include "engine/detail/polygon_turns.h"
+#include "engine/detail/exact_predicates.h"
+#include "engine/mesh_topology.h"
 #include "engine/detail/shor_van_wyk.h"
 
 namespace lipmap {
@@ -42,35 +41,28 @@ std::vector<int> rotation_indices_of(const std::vector<Pt>& p, const std::vector
   const int n = static_cast<int>(p.size());
   auto fail = [](const std::string& why) { throw InternalError("classify produced an invalid triangulation: " + why); };
   if (static_cast<int>(tris.size()) != n - 2) fail("wrong triangle count");
-  std::vector<std::vector<std::pair<int, int>>> fan(n);  // per vertex: (from, to) sweeps of its corners
-  std::map<std::pair<int, int>, int> edge_uses;
   for (const Triangle& t : tris) {
     for (int v : t)
       if (v < 0 || v >= n) fail("index out of range");
     if (detail::orient(p[t[0]], p[t[1]], p[t[2]]) <= 0) fail("a triangle is not strictly positive");
-    for (int c = 0; c < 3; ++c) {
-      const int v = t[c], a = t[(c + 1) % 3], b = t[(c + 2) % 3];
-      fan[v].push_back({a, b});
-      ++edge_uses[{std::min(v, a), std::max(v, a)}];
-    }
   }
-  for (const auto& [edge, uses] : edge_uses) {
-    const bool polygon_edge = edge.second - edge.first == 1 || (edge.first == 0 && edge.second == n - 1);
-    if (uses != (polygon_edge ? 1 : 2)) fail("edge used the wrong number of times");
+  const MeshTopology mesh(n, tris);
+  for (int e = 0; e < mesh.edge_count(); ++e) {
+    const auto [a, b] = mesh.edge_vertices(e);
+    const bool polygon_edge = b - a == 1 || (a == 0 && b == n - 1);
+    if (mesh.edge_use_count(e) != (polygon_edge ? 1 : 2)) fail("edge used the wrong number of times");
   }
+  if (!mesh.oriented_manifold()) fail("triangles around a vertex do not form one fan");
   std::vector<int> rotation(n);
   for (int v = 0; v < n; ++v) {
+    // The fan read backwards sweeps counterclockwise from v_{i+1} to v_{i-1}.
+    const HalfedgeRange fan = mesh.fan(v);
     const int first = (v + 1) % n, last = (v + n - 1) % n;
-    std::sort(fan[v].begin(), fan[v].end());
-    int at = first, turns = 0;
-    for (std::size_t step = 0; step < fan[v].size(); ++step) {
-      auto it = std::lower_bound(fan[v].begin(), fan[v].end(), std::pair<int, int>{at, -1});
-      if (it == fan[v].end() || it->first != at) fail("triangles around a vertex do not form one fan");
-      turns += detail::extra_turn(p[v], p[first], p[at], p[it->second]);
-      at = it->second;
-    }
-    if (at != last) fail("fan does not end at the previous polygon vertex");
-    rotation[v] = turns - spikes[v];
+    if (mesh.to(fan.back()) != first || mesh.from(MeshTopology::prev(fan.front())) != last)
+      fail("fan does not run from the next polygon vertex to the previous one");
+    detail::TurnCount count(p[v], p[first]);
+    for (std::size_t i = fan.size(); i-- > 0;) count.add(p[mesh.to(fan[i])], p[mesh.from(MeshTopology::prev(fan[i]))]);
+    rotation[v] = count.turns() - spikes[v];
     if (rotation[v] < 0) fail("negative rotation index");
   }
   return rotation;

@@ -13,7 +13,7 @@ Composition compose(const DiskMesh& source, const std::vector<int>& loop, const 
   const auto t0 = std::chrono::steady_clock::now();
   const int n = static_cast<int>(source.vertices.size());
   Composition out;
-  out.walk = std::make_shared<const detail::DiskWalk>(target_disk, target.vertices, target.faces);
+  out.walk = std::make_shared<const detail::DiskWalk>(target_disk, target.vertices, target.faces, target.topology);
   const detail::DiskWalk& walk = *out.walk;
   out.uv.assign(n, Point2{});
   out.target_face.assign(n, -1);
@@ -31,7 +31,7 @@ Composition compose(const DiskMesh& source, const std::vector<int>& loop, const 
     seen[v] = 1;
     queue.push_back(v);
   }
-  const TriMesh& mesh = source.mesh;
+  const MeshTopology& mesh = source.topology;
   int visited = 0;
   while (!queue.empty()) {
     const int v = queue.front();
@@ -44,8 +44,12 @@ Composition compose(const DiskMesh& source, const std::vector<int>& loop, const 
       out.uv[v] = walk.target_point(detail::Pt(q.x, q.y), f);
       start_face[v] = f;
     }
-    for (auto vv : mesh.vv_range(mesh.vertex_handle(v))) {
-      const int w = vv.idx();
+    // v's neighbours clockwise (a boundary vertex's starting with its predecessor on the loop): the
+    // visiting order, and so each walk's start, depends on it.
+    const HalfedgeRange fan = mesh.fan(v);
+    const int before = mesh.is_boundary_vertex(v) ? mesh.from(MeshTopology::prev(fan.front())) : -1;
+    for (int i = before >= 0 ? -1 : 0; i < static_cast<int>(fan.size()); ++i) {
+      const int w = i < 0 ? before : mesh.to(fan[i]);
       if (seen[w]) continue;
       seen[w] = 1;
       start_face[w] = start_face[v];

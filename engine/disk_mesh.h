@@ -5,25 +5,18 @@
 #include <optional>
 #include <vector>
 
-#include <OpenMesh/Core/Mesh/TriMesh_ArrayKernelT.hh>
-
 #include "engine/boundary_polygon.h"
 #include "engine/geometry.h"
+#include "engine/mesh_topology.h"
 #include "engine/raw_mesh.h"
 
 namespace lipmap {
-
-struct MeshTraits : public OpenMesh::DefaultTraits {
-  using Point = OpenMesh::Vec3d;
-  using Normal = OpenMesh::Vec3d;
-};
-using TriMesh = OpenMesh::TriMesh_ArrayKernelT<MeshTraits>;
 
 struct DiskMesh {
   std::vector<Point3> vertices;        // index i is input vertex i
   std::vector<Triangle> faces;         // index f is input face f, corners as given
   std::vector<int> boundary_loop;      // interior on the left (face orientation), starts at lowest index
-  TriMesh mesh;                        // same vertices and faces, for the stages that walk the mesh
+  MeshTopology topology;               // of `faces`, built by validate; the stages after it read it
 };
 
 // f_b: boundary vertex loop[k] maps to polygon.vertices[k]. loop is a rotation of DiskMesh::boundary_loop.

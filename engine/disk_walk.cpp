@@ -11,44 +11,26 @@
 
 namespace lipmap::detail {
 namespace {
-
 using Q = CGAL::Exact_rational;
-
-std::uint64_t edge_key(int a, int b) {
-  return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(a)) << 32) | static_cast<std::uint32_t>(b);
-}
-
 }  // namespace
 
 DiskWalk::DiskWalk(const std::vector<Point2>& disk, const std::vector<Point2>& target,
-                   const std::vector<Triangle>& faces)
-    : target_(target), faces_(faces), neighbours_(faces.size(), {-1, -1, -1}) {
+                   const std::vector<Triangle>& faces, const MeshTopology& topology)
+    : target_(target), faces_(faces), mesh_(&topology) {
   disk_.reserve(disk.size());
   for (const Point2& p : disk) disk_.emplace_back(p.x, p.y);
-
-  // Directed edge -> face, as a sorted list: the face across edge (a, b) is the one that has (b, a).
-  std::vector<std::pair<std::uint64_t, int>> directed;
-  directed.reserve(faces.size() * 3);
-  for (int f = 0; f < static_cast<int>(faces.size()); ++f)
-    for (int e = 0; e < 3; ++e) directed.push_back({edge_key(faces[f][e], faces[f][(e + 1) % 3]), f});
-  std::sort(directed.begin(), directed.end());
-  for (int f = 0; f < static_cast<int>(faces.size()); ++f) {
-    for (int e = 0; e < 3; ++e) {
-      const std::uint64_t key = edge_key(faces[f][(e + 1) % 3], faces[f][e]);
-      auto it = std::lower_bound(directed.begin(), directed.end(), std::pair<std::uint64_t, int>{key, -1});
-      if (it != directed.end() && it->first == key) neighbours_[f][e] = it->second;
-    }
+  if (topology.face_count() != static_cast<int>(faces.size()) ||
+      topology.vertex_count() != static_cast<int>(disk.size()) || !topology.oriented_manifold()) {
+    own_ = MeshTopology(static_cast<int>(disk.size()), faces);
+    mesh_ = &own_;
   }
+}
 
-  // Faces around each vertex, compressed rows.
-  vertex_face_begin_.assign(disk.size() + 1, 0);
-  for (const Triangle& t : faces)
-    for (int v : t) ++vertex_face_begin_[v + 1];
-  for (std::size_t v = 0; v < disk.size(); ++v) vertex_face_begin_[v + 1] += vertex_face_begin_[v];
-  vertex_faces_.resize(faces.size() * 3);
-  std::vector<int> fill(vertex_face_begin_.begin(), vertex_face_begin_.end() - 1);
-  for (int f = 0; f < static_cast<int>(faces.size()); ++f)
-    for (int v : faces[f]) vertex_faces_[fill[v]++] = f;
+int DiskWalk::face_at_vertex(int w) const {
+  int lowest = -1;
+  for (int h : mesh_->fan(w))
+    if (lowest < 0 || MeshTopology::face_of(h) < lowest) lowest = MeshTopology::face_of(h);
+  return lowest;
 }
 
 // Stochastic visibility walk (Devillers, Pion, Teillaud): cross an edge that has q strictly on its outer
@@ -79,17 +61,19 @@ int DiskWalk::locate(const Pt& q, int f, int* steps) const {
   throw InternalError("compose: a point of the source disk map lies outside the target disk map");
 }
 
-// The face at vertex w whose closed corner contains the direction w -> b.
+// The face at vertex w whose closed corner contains the direction w -> b; the lowest-index one when the
+// direction runs along an edge (two closed corners contain it).
 int DiskWalk::face_around(int w, const Pt& b) const {
   const Pt& pw = disk_[w];
-  for (int i = vertex_face_begin_[w]; i < vertex_face_begin_[w + 1]; ++i) {
-    const int f = vertex_faces_[i];
-    const Triangle& t = faces_[f];
-    const int c = t[0] == w ? 0 : t[1] == w ? 1 : 2;
-    const Pt &x = disk_[t[(c + 1) % 3]], &y = disk_[t[(c + 2) % 3]];
-    if (orient(pw, x, b) >= 0 && orient(pw, b, y) >= 0) return f;
+  int found = -1;
+  for (int h : mesh_->fan(w)) {
+    const int f = MeshTopology::face_of(h);
+    if (found >= 0 && f > found) continue;
+    const Pt &x = disk_[mesh_->to(h)], &y = disk_[mesh_->from(MeshTopology::prev(h))];
+    if (orient(pw, x, b) >= 0 && orient(pw, b, y) >= 0) found = f;
   }
-  throw InternalError("refine: no target face around a vertex contains the walking direction");
+  if (found < 0) throw InternalError("refine: no target face around a vertex contains the walking direction");
+  return found;
 }
 
 std::vector<Crossing> DiskWalk::crossings(const Pt& a, const Pt& b, int f) const {

@@ -1,29 +1,22 @@
+// Exact orientation checks through the engine's one exact module (engine/detail/exact_predicates.h).
 #include "engine/flip_check.h"
 
 #include <cassert>
 
-#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include "engine/detail/exact_predicates.h"
 
 namespace lipmap {
 namespace {
 
-using Epick = CGAL::Exact_predicates_inexact_constructions_kernel;
-
 inline bool positive(const std::vector<Point2>& uv, const Triangle& t) {
   assert(t[0] >= 0 && t[1] >= 0 && t[2] >= 0);
-  const Point2& a = uv[static_cast<std::size_t>(t[0])];
-  const Point2& b = uv[static_cast<std::size_t>(t[1])];
-  const Point2& c = uv[static_cast<std::size_t>(t[2])];
-  return CGAL::orientation(Epick::Point_2(a.x, a.y), Epick::Point_2(b.x, b.y), Epick::Point_2(c.x, c.y)) ==
-         CGAL::LEFT_TURN;
+  return detail::orient(uv[static_cast<std::size_t>(t[0])], uv[static_cast<std::size_t>(t[1])],
+                        uv[static_cast<std::size_t>(t[2])]) > 0;
 }
 
 }  // namespace
 
-int orientation_sign(const Point2& a, const Point2& b, const Point2& c) {
-  return static_cast<int>(
-      CGAL::orientation(Epick::Point_2(a.x, a.y), Epick::Point_2(b.x, b.y), Epick::Point_2(c.x, c.y)));
-}
+int orientation_sign(const Point2& a, const Point2& b, const Point2& c) { return detail::orient(a, b, c); }
 
 int count_non_positive(const std::vector<Point2>& uv, const std::vector<Triangle>& faces) {
   int count = 0;

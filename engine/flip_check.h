@@ -1,6 +1,6 @@
-// Exact orientation checks of a planar triangle map. The predicate is CGAL's
-// Exact_predicates_inexact_constructions_kernel::orientation_2 evaluated on the doubles as they are
-// (DESIGN.md section 2, item 3); CGAL itself stays in flip_check.cpp.
+// Exact orientation checks of a planar triangle map, for the stages and the transport. The predicate is the
+// engine's exact orientation test (engine/detail/exact_predicates.h: CGAL's filtered orientation_2 on the
+// doubles as they are); CGAL itself stays out of this header.
 #pragma once
 
 #include <vector>

@@ -1,5 +1,5 @@
 // Float32 texture coordinates of a uv map (see float32_uv.h). Every decision is an exact orientation test
-// on the stored values or an exact turn count (engine/detail/plane_angles.h, paper App. B).
+// on the stored values or an exact turn count (engine/detail/exact_predicates.h, paper App. B).
 #include "engine/float32_uv.h"
 
 #include <algorithm>
@@ -9,8 +9,7 @@
 #include <limits>
 #include <utility>
 
-#include "engine/detail/plane_angles.h"
-#include "engine/detail/polygon_turns.h"
+#include "engine/detail/exact_predicates.h"
 
 namespace lipmap {
 namespace {

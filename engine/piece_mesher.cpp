@@ -15,6 +15,7 @@
 #include <cmath>
 #include <string>
 
+#include "engine/detail/exact_predicates.h"
 #include "engine/error.h"
 
 namespace lipmap::detail {
@@ -289,10 +290,6 @@ bool is_simple_polygon(const std::vector<Point2>& polygon) {
   return CGAL::is_simple_2(pts.begin(), pts.end(), K());
 }
 
-int orientation(const Point2& a, const Point2& b, const Point2& c) {
-  return static_cast<int>(CGAL::orientation(to_k(a), to_k(b), to_k(c)));
-}
-
 namespace {
 
 struct Box {
@@ -304,14 +301,6 @@ Box box_of(const Point2& a, const Point2& b) {
 }
 
 bool boxes_meet(const Box& a, const Box& b) { return a.x0 <= b.x1 && b.x0 <= a.x1 && a.y0 <= b.y1 && b.y0 <= a.y1; }
-
-// u and w lie on the same ray from c (all three collinear, u != c, w != c).
-bool same_ray(const Point2& c, const Point2& u, const Point2& w) {
-  auto sgn = [](double a, double b) { return (a > b) - (a < b); };
-  const int ux = sgn(u.x, c.x);
-  if (ux != 0) return ux == sgn(w.x, c.x);
-  return sgn(u.y, c.y) == sgn(w.y, c.y);
-}
 
 }  // namespace
 
@@ -338,14 +327,14 @@ bool glued_union_is_simple(const std::vector<Point2>& a_path, const std::vector<
         // Consecutive in the union at a: (x, a) then (a, y); they may only share a.
         const Point2& x = a_path[i];
         const Point2& y = b_path[1];
-        if (orientation(x, a, y) == 0 && same_ray(a, x, y)) return false;
+        if (orient(x, a, y) == 0 && same_ray(to_k(a), to_k(x), to_k(y))) return false;
         continue;
       }
       if (b_last && a_first) {
         // Consecutive at b: (z, b) then (b, w).
         const Point2& z = b_path[j];
         const Point2& w = a_path[1];
-        if (orientation(z, b, w) == 0 && same_ray(b, z, w)) return false;
+        if (orient(z, b, w) == 0 && same_ray(to_k(b), to_k(z), to_k(w))) return false;
         continue;
       }
       if (CGAL::do_intersect(K::Segment_2(p0, p1), K::Segment_2(to_k(b_path[j]), to_k(b_path[j + 1])))) return false;
@@ -442,8 +431,7 @@ PieceMeshResult mesh_simple_piece(const std::vector<Point2>& boundary, const Siz
   result.faces.reserve(m - 2 + 2 * result.steiner.size());
   for (auto f = cdt.finite_faces_begin(); f != cdt.finite_faces_end(); ++f) {
     if (!f->is_in_domain()) continue;
-    if (CGAL::orientation(f->vertex(0)->point(), f->vertex(1)->point(), f->vertex(2)->point()) !=
-        CGAL::LEFT_TURN)
+    if (orient(f->vertex(0)->point(), f->vertex(1)->point(), f->vertex(2)->point()) <= 0)
       throw InternalError("target mesh: the mesher produced a non-positive triangle");
     result.faces.push_back(
         Triangle{f->vertex(0)->info().id, f->vertex(1)->info().id, f->vertex(2)->info().id});

@@ -16,13 +16,11 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
-#include <unordered_map>
 #include <cstdio>
 #include <cstdlib>
 
 #include "engine/detail/disk_walk.h"
-#include "engine/detail/plane_angles.h"
-#include "engine/detail/polygon_turns.h"
+#include "engine/detail/exact_predicates.h"
 #include "engine/detail/shor_van_wyk.h"
 
 namespace lipmap {
@@ -57,7 +55,8 @@ public:
           const Composition& composition, const CancelToken* cancel)
       : source_(source), faces_(source.faces), source_disk_(source_disk), uv_(composition.uv),
         walk_owned_(composition.walk ? composition.walk
-                                     : std::make_shared<const detail::DiskWalk>(target_disk, target.vertices, target.faces)),
+                                     : std::make_shared<const detail::DiskWalk>(target_disk, target.vertices, target.faces,
+                                                                                target.topology)),
         walk_(*walk_owned_), cancel_(cancel) {
     const int nv = static_cast<int>(source.vertices.size());
     start_face_ = composition.target_face;
@@ -69,7 +68,7 @@ public:
       start_face_[loop[k]] = walk_.face_at_vertex(k);
       singular_[loop[k]] = rotation[k];
     }
-    build_edges(nv);
+    build_edges();
   }
 
   RefinedMap run(bool refine) {
@@ -102,24 +101,19 @@ public:
 
 private:
   // ---- topology ----
-  void build_edges(int nv) {
-    std::unordered_map<std::uint64_t, int> index;
-    index.reserve(faces_.size() * 2);
+  // The source mesh's edges (validate's topology): per edge its two vertices and its one or two faces (the
+  // face of its first half-edge first), per face its edges.
+  void build_edges() {
+    const MeshTopology& mesh = source_.topology;
     face_edges_.resize(faces_.size());
-    for (int f = 0; f < static_cast<int>(faces_.size()); ++f) {
-      for (int i = 0; i < 3; ++i) {
-        const int a = std::min(faces_[f][i], faces_[f][(i + 1) % 3]);
-        const int b = std::max(faces_[f][i], faces_[f][(i + 1) % 3]);
-        const std::uint64_t key = static_cast<std::uint64_t>(a) * static_cast<std::uint64_t>(nv) + b;
-        auto [it, fresh] = index.emplace(key, static_cast<int>(edge_vertices_.size()));
-        if (fresh) {
-          edge_vertices_.push_back({a, b});
-          edge_faces_.push_back({f, -1});
-        } else {
-          edge_faces_[it->second][1] = f;
-        }
-        face_edges_[f][i] = it->second;
-      }
+    for (int f = 0; f < static_cast<int>(faces_.size()); ++f)
+      for (int i = 0; i < 3; ++i) face_edges_[f][i] = mesh.edge(3 * f + i);
+    edge_vertices_.resize(mesh.edge_count());
+    edge_faces_.resize(mesh.edge_count());
+    for (int e = 0; e < mesh.edge_count(); ++e) {
+      const HalfedgeRange uses = mesh.edge_uses(e);
+      edge_vertices_[e] = mesh.edge_vertices(e);
+      edge_faces_[e] = {MeshTopology::face_of(uses[0]), uses.size() > 1 ? MeshTopology::face_of(uses[1]) : -1};
     }
     points_.resize(edge_vertices_.size());
     point_base_.assign(edge_vertices_.size(), 0);
@@ -200,13 +194,13 @@ private:
       const Triangle& t = faces_[f];
       if (detail::orient(pt(uv_[t[0]]), pt(uv_[t[1]]), pt(uv_[t[2]])) <= 0) { bad[f] = 1; ++flipped; }
     }
-    const TriMesh& mesh = source_.mesh;
-    for (auto vh : mesh.vertices()) {
-      if (mesh.is_boundary(vh)) continue;
+    const MeshTopology& mesh = source_.topology;
+    for (int v = 0; v < mesh.vertex_count(); ++v) {
+      if (mesh.is_boundary_vertex(v)) continue;
       bool all_positive = true;
-      for (auto fh : mesh.vf_range(vh)) all_positive = all_positive && !bad[fh.idx()];
-      if (all_positive && winding(vh.idx()) != 1)
-        for (auto fh : mesh.vf_range(vh)) bad[fh.idx()] = 1;
+      for (int h : mesh.fan(v)) all_positive = all_positive && !bad[MeshTopology::face_of(h)];
+      if (all_positive && winding(v) != 1)
+        for (int h : mesh.fan(v)) bad[MeshTopology::face_of(h)] = 1;
     }
     std::vector<int> out;
     for (int f = 0; f < nf; ++f)
@@ -217,13 +211,11 @@ private:
   // Full turns of the image one-ring around interior vertex v, summing its faces' corner sweeps (App. B).
   // Each side of a corner points at the first remaining point on that edge, or at the far vertex.
   int winding(int v) const {
+    const MeshTopology& mesh = source_.topology;
     std::vector<detail::FanCorner> fan;
-    for (auto fh : source_.mesh.vf_range(source_.mesh.vertex_handle(v))) {
-      const int f = fh.idx();
-      const Triangle& t = faces_[f];
-      const int c = t[0] == v ? 0 : t[1] == v ? 1 : 2;
-      fan.push_back({t[(c + 1) % 3], t[(c + 2) % 3], ray_point(v, face_edges_[f][c]),
-                     ray_point(v, face_edges_[f][(c + 2) % 3])});
+    for (int h : mesh.fan(v)) {
+      const int g = MeshTopology::prev(h);
+      fan.push_back({mesh.to(h), mesh.from(g), ray_point(v, mesh.edge(h)), ray_point(v, mesh.edge(g))});
     }
     return detail::fan_turns(pt(uv_[v]), fan);
   }
@@ -327,21 +319,18 @@ private:
   // is refined, so that the rays leaving them are the true ones; their faces are checked again.
   std::vector<int> faces_around_wrong_windings() {
     std::vector<int> out;
-    const TriMesh& mesh = source_.mesh;
-    for (auto vh : mesh.vertices()) {
-      if (mesh.is_boundary(vh)) continue;
-      const int v = vh.idx();
+    const MeshTopology& mesh = source_.topology;
+    for (int v = 0; v < mesh.vertex_count(); ++v) {
+      if (mesh.is_boundary_vertex(v)) continue;
       bool touched = false, all_done = true;
-      for (auto fh : mesh.vf_range(vh)) {
-        const Triangle& t = faces_[fh.idx()];
-        const int c = t[0] == v ? 0 : t[1] == v ? 1 : 2;
-        for (int e : {face_edges_[fh.idx()][c], face_edges_[fh.idx()][(c + 2) % 3]}) {  // the two edges at v
+      for (int h : mesh.fan(v)) {
+        for (int e : {mesh.edge(h), mesh.edge(MeshTopology::prev(h))}) {  // the two edges at v
           touched = touched || !points_[e].empty();
           all_done = all_done && edge_done_[e];
         }
       }
       if (!touched || all_done || winding(v) == 1) continue;
-      for (auto fh : mesh.vf_range(vh)) out.push_back(fh.idx());
+      for (int h : mesh.fan(v)) out.push_back(MeshTopology::face_of(h));
     }
     return out;
   }

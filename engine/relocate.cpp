@@ -11,7 +11,7 @@
 #include <optional>
 
 #include "engine/detail/disk_walk.h"
-#include "engine/detail/polygon_turns.h"
+#include "engine/detail/exact_predicates.h"
 #include "engine/flip_check.h"
 
 namespace lipmap {
@@ -94,10 +94,9 @@ private:
   // v's corner in each face (v, next, prev), with the image rays towards next and prev.
   std::vector<Corner> corners(int v) const {
     std::vector<Corner> out;
-    for (auto fh : source_.mesh.vf_range(source_.mesh.vertex_handle(v))) {
-      const Triangle& t = source_.faces[fh.idx()];
-      const int c = t[0] == v ? 0 : t[1] == v ? 1 : 2;
-      const int next = t[(c + 1) % 3], prev = t[(c + 2) % 3];
+    const MeshTopology& mesh = source_.topology;
+    for (int h : mesh.fan(v)) {
+      const int next = mesh.to(h), prev = mesh.from(MeshTopology::prev(h));
       out.push_back({next, prev, pt(uv_[next]), pt(uv_[prev])});
     }
     return out;
@@ -108,8 +107,8 @@ private:
   }
 
   bool tangled(int v) const {
-    for (auto fh : source_.mesh.vf_range(source_.mesh.vertex_handle(v)))
-      if (!positive(source_.faces[fh.idx()])) return true;
+    for (int h : source_.topology.fan(v))
+      if (!positive(source_.faces[MeshTopology::face_of(h)])) return true;
     return false;
   }
 

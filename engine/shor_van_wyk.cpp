@@ -16,7 +16,7 @@
 #include <cstdint>
 
 #include "engine/detail/ear_reduction.h"
-#include "engine/detail/polygon_turns.h"
+#include "engine/detail/exact_predicates.h"
 
 namespace lipmap::detail {
 namespace {

@@ -1,5 +1,5 @@
 // Stage "target mesh" (paper 4, "Meshing the target domain"); see engine/target_mesh.h.
-// CGAL lives in engine/piece_mesher.cpp; this file only calls its exact predicates and the piece mesher.
+// CGAL's mesher lives in engine/piece_mesher.cpp; this file calls it and the engine's exact predicates.
 #include "engine/target_mesh.h"
 
 #include <algorithm>
@@ -12,6 +12,7 @@
 #include <string>
 #include <utility>
 
+#include "engine/detail/exact_predicates.h"
 #include "engine/detail/piece_mesher.h"
 #include "engine/error.h"
 
@@ -77,7 +78,7 @@ std::vector<InteriorEdge> check_coarse(const std::vector<Point2>& P, const std::
     const Triangle& f = coarse[t];
     for (int c = 0; c < 3; ++c)
       if (f[c] < 0 || f[c] >= n) fail("coarse triangle " + std::to_string(t) + " has a vertex out of range");
-    if (detail::orientation(P[f[0]], P[f[1]], P[f[2]]) <= 0)
+    if (detail::orient(P[f[0]], P[f[1]], P[f[2]]) <= 0)
       fail("coarse triangle " + std::to_string(t) + " is not strictly positive");
     for (int c = 0; c < 3; ++c)
       directed.emplace_back(edge_key(f[c], f[(c + 1) % 3]), static_cast<int>(3 * t + c));
@@ -426,8 +427,20 @@ Attempt mesh_partition(const std::vector<Point2>& P, const Partition& part,
 
 namespace {
 
-// verify_target_mesh; returns the smallest triangle angle (radians), a by-product of the angle sums.
-double verify_mesh(const BoundaryPolygon& polygon, const std::vector<Triangle>& coarse, const TargetMesh& mesh) {
+// Full turns of the corner sweeps at polygon vertex v of a mesh whose boundary loop is 0, 1, ..., n - 1,
+// chained counterclockwise from the ray towards v + 1 (its fan, read backwards).
+int polygon_vertex_turns(const std::vector<Point2>& points, const MeshTopology& mesh, int v) {
+  const HalfedgeRange fan = mesh.fan(v);
+  auto at = [&](int w) { return detail::Pt(points[w].x, points[w].y); };
+  detail::TurnCount count(at(v), at(mesh.to(fan.back())));
+  for (std::size_t i = fan.size(); i-- > 0;) count.add(at(mesh.to(fan[i])), at(mesh.from(MeshTopology::prev(fan[i]))));
+  return count.turns();
+}
+
+// verify_target_mesh; `topology`, when given, is the topology of mesh.faces. Returns the smallest triangle
+// angle (radians), a measurement for the report.
+double verify_mesh(const BoundaryPolygon& polygon, const std::vector<Triangle>& coarse, const TargetMesh& mesh,
+                   const MeshTopology* topology) {
   const std::vector<Point2>& P = polygon.vertices;
   const int n = static_cast<int>(P.size());
   const int V = static_cast<int>(mesh.vertices.size());
@@ -441,91 +454,74 @@ double verify_mesh(const BoundaryPolygon& polygon, const std::vector<Triangle>& 
 
   const int F = static_cast<int>(mesh.faces.size());
   std::vector<int> degree(V, 0);
+  double min_angle = M_PI;
   for (int f = 0; f < F; ++f) {
     const Triangle& t = mesh.faces[f];
     for (int c = 0; c < 3; ++c)
       if (t[c] < 0 || t[c] >= V) fail("verify: face " + std::to_string(f) + " has a vertex out of range");
-    if (detail::orientation(mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]) <= 0)
+    if (detail::orient(mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]) <= 0)
       fail("verify: face " + std::to_string(f) + " is not strictly positive");
-    for (int c = 0; c < 3; ++c) ++degree[t[c]];
+    for (int c = 0; c < 3; ++c) {
+      ++degree[t[c]];
+      min_angle = std::min(min_angle, corner_angle(mesh.vertices[t[c]], mesh.vertices[t[(c + 1) % 3]],
+                                                   mesh.vertices[t[(c + 2) % 3]]));
+    }
   }
   for (int v = 0; v < V; ++v)
     if (degree[v] == 0) fail("verify: vertex " + std::to_string(v) + " is in no face");
 
-  // Links: for face (a, b, d), vertex a gets the pair (b, d), i.e. its outgoing edge a -> b and the next
-  // vertex of its fan. Sorted per vertex by b.
-  std::vector<int> offset(V + 1, 0);
-  for (int v = 0; v < V; ++v) offset[v + 1] = offset[v] + degree[v];
-  std::vector<std::pair<int, int>> link(offset[V]);
-  std::vector<double> angle_sum(V, 0.0);
-  double min_angle = M_PI;
-  {
-    std::vector<int> fill(offset.begin(), offset.end() - 1);
-    for (const Triangle& t : mesh.faces)
-      for (int c = 0; c < 3; ++c) {
-        const int a = t[c], b = t[(c + 1) % 3], d = t[(c + 2) % 3];
-        link[fill[a]++] = {b, d};
-        const double angle = corner_angle(mesh.vertices[a], mesh.vertices[b], mesh.vertices[d]);
-        angle_sum[a] += angle;
-        min_angle = std::min(min_angle, angle);
-      }
+  MeshTopology built;
+  if (!topology) {
+    built = MeshTopology(V, mesh.faces);
+    topology = &built;
   }
-  for (int v = 0; v < V; ++v) std::sort(link.begin() + offset[v], link.begin() + offset[v + 1]);
-  auto next_of = [&](int v, int from) -> int {  // fan successor of `from` around v, -1 if none
-    const auto b = link.begin() + offset[v], e = link.begin() + offset[v + 1];
-    const auto it = std::lower_bound(b, e, std::make_pair(from, std::numeric_limits<int>::min()));
-    return (it != e && it->first == from) ? it->second : -1;
-  };
-
-  // Edge-manifold: every directed edge once; boundary edges (no reverse) are exactly P's edges k -> k+1.
+  const MeshTopology& topo = *topology;
+  // Edge-manifold: every directed edge once; boundary edges are exactly P's edges k -> k+1.
   long long boundary_edges = 0;
-  for (int a = 0; a < V; ++a)
-    for (int i = offset[a]; i < offset[a + 1]; ++i) {
-      const int b = link[i].first;
-      if (i > offset[a] && link[i - 1].first == b)
-        fail("verify: directed edge (" + std::to_string(a) + ", " + std::to_string(b) + ") is used twice (not manifold)");
-      if (next_of(b, a) >= 0) continue;
-      ++boundary_edges;
-      if (a >= n || b != (a + 1) % n)
-        fail("verify: boundary edge (" + std::to_string(a) + ", " + std::to_string(b) + ") is not a polygon edge");
-    }
+  for (int e = 0; e < topo.edge_count(); ++e) {
+    const HalfedgeRange uses = topo.edge_uses(e);
+    const int a = topo.from(uses[0]), b = topo.to(uses[0]);
+    if (uses.size() > 2 || (uses.size() == 2 && topo.from(uses[1]) == a))
+      fail("verify: directed edge (" + std::to_string(a) + ", " + std::to_string(b) + ") is used twice (not manifold)");
+    if (uses.size() == 2) continue;
+    ++boundary_edges;
+    if (a >= n || b != (a + 1) % n)
+      fail("verify: boundary edge (" + std::to_string(a) + ", " + std::to_string(b) + ") is not a polygon edge");
+  }
   if (boundary_edges != n) fail("verify: the boundary is not the polygon's n edges");
-  const long long E = (3LL * F + boundary_edges) / 2;
+  const long long E = topo.edge_count();
   if (static_cast<long long>(V) - E + F != 1)
     fail("verify: Euler characteristic " + std::to_string(static_cast<long long>(V) - E + F) + ", expected 1");
+  // One fan per vertex (the boundary edges being P's, a polygon vertex's fan runs from v + 1 to v - 1).
+  if (!topo.oriented_manifold()) {
+    const int v = topo.first_vertex_with_broken_fan();
+    fail(std::string("verify: ") + (v < n ? "polygon" : "interior") + " vertex " + std::to_string(v) +
+         " has more than one fan (not a disk)");
+  }
 
-  // One fan per vertex: the link is a single path (polygon vertex) or a single cycle (interior vertex);
-  // interior angle sums are one full turn; polygon vertices keep the coarse triangulation's angle.
-  std::vector<double> coarse_angle(n, 0.0);
+  // Angles, exactly: one full turn at interior vertices; at polygon vertex k the turns of the coarse
+  // triangulation's fan (both fans sweep from the ray towards k + 1 to the ray towards k - 1).
   for (const Triangle& t : coarse)
-    for (int c = 0; c < 3; ++c)
-      coarse_angle[t[c]] += corner_angle(P[t[c]], P[t[(c + 1) % 3]], P[t[(c + 2) % 3]]);
+    for (int c : t)
+      if (c < 0 || c >= n) fail("verify: a coarse triangle has a vertex out of range");
+  const MeshTopology coarse_topology(n, coarse);
+  if (!coarse_topology.oriented_manifold() || coarse_topology.boundary_loops().size() != 1 ||
+      coarse_topology.boundary_loops()[0].size() != static_cast<std::size_t>(n) || coarse_topology.boundary_next(0) != 1 % n)
+    fail("verify: the coarse triangulation is not a disk bounded by the polygon");
   for (int v = 0; v < V; ++v) {
-    const int d = degree[v];
-    int steps = 0;
     if (v < n) {
-      int cur = (v + 1) % n;
-      while (cur >= 0 && cur != (v + n - 1) % n && steps <= d) {
-        cur = next_of(v, cur);
-        ++steps;
-      }
-      if (cur != (v + n - 1) % n || steps != d)
-        fail("verify: polygon vertex " + std::to_string(v) + " has more than one fan (not a disk)");
-      if (std::fabs(angle_sum[v] - coarse_angle[v]) > 1e-6)
+      if (polygon_vertex_turns(mesh.vertices, topo, v) != polygon_vertex_turns(P, coarse_topology, v))
         fail("verify: angle at polygon vertex " + std::to_string(v) + " differs from the coarse triangulation's");
-    } else {
-      const int start = link[offset[v]].first;
-      int cur = start;
-      do {
-        cur = next_of(v, cur);
-        ++steps;
-      } while (cur >= 0 && cur != start && steps <= d);
-      if (cur != start || steps != d)
-        fail("verify: interior vertex " + std::to_string(v) + " has more than one fan (not a disk)");
-      if (std::fabs(angle_sum[v] - 2 * M_PI) > 1e-6)
-        fail("verify: angle sum at interior vertex " + std::to_string(v) + " is " +
-             std::to_string(angle_sum[v]) + ", not 2 pi");
+      continue;
     }
+    const HalfedgeRange fan = topo.fan(v);
+    const Point2& c = mesh.vertices[v];
+    auto at = [&](int w) { return detail::Pt(mesh.vertices[w].x, mesh.vertices[w].y); };
+    detail::TurnCount count(detail::Pt(c.x, c.y), at(topo.to(fan.back())));
+    for (std::size_t i = fan.size(); i-- > 0;) count.add(at(topo.to(fan[i])), at(topo.from(MeshTopology::prev(fan[i]))));
+    if (count.turns() != 1)
+      fail("verify: angle sum at interior vertex " + std::to_string(v) + " is " + std::to_string(count.turns()) +
+           " x 2 pi, not 2 pi");
   }
 
   double area = 0, coarse_area = 0, coarse_abs = 0;
@@ -546,7 +542,7 @@ double verify_mesh(const BoundaryPolygon& polygon, const std::vector<Triangle>& 
 
 void verify_target_mesh(const BoundaryPolygon& polygon, const std::vector<Triangle>& coarse,
                         const TargetMesh& mesh) {
-  verify_mesh(polygon, coarse, mesh);
+  verify_mesh(polygon, coarse, mesh, nullptr);
 }
 
 TargetMesh build_target_mesh(const BoundaryPolygon& polygon, const std::vector<Triangle>& coarse,
@@ -653,7 +649,8 @@ TargetMesh build_target_mesh(const BoundaryPolygon& polygon, const std::vector<T
   result.size = best_h;
 
   const auto tv = Clock::now();
-  result.min_angle_deg = verify_mesh(polygon, coarse, result) * 180.0 / M_PI;
+  result.topology = MeshTopology(static_cast<int>(result.vertices.size()), result.faces);
+  result.min_angle_deg = verify_mesh(polygon, coarse, result, &result.topology) * 180.0 / M_PI;
   result.verify_ms = ms_since(tv);
   result.ms = ms_since(t0);
   return result;

@@ -21,8 +21,9 @@
 //     (a thinner rule than CGAL's Gabriel test, which leaves fans of needles next to long edges).
 //  5. Glue: polygon vertex k keeps id k; split points follow, then the pieces' Steiner points.
 // The result is verified before it is returned (strictly positive faces by the exact predicate, a disk
-// whose single boundary loop is 0, 1, ..., n-1 with the interior on the left, interior angle sums 2 pi,
-// angle at every polygon vertex equal to the coarse triangulation's, total area equal to the coarse area);
+// whose single boundary loop is 0, 1, ..., n-1 with the interior on the left, interior angle sums 2 pi and
+// the angle at every polygon vertex equal to the coarse triangulation's, both decided exactly by counting
+// full turns (engine/detail/exact_predicates.h), total area equal to the coarse area);
 // any failure throws InternalError with the reason.
 //
 // Quality: with boundaries like a source mesh's (edges about as long as the target size) every triangle
@@ -35,6 +36,7 @@
 #include "engine/boundary_polygon.h"
 #include "engine/cancel.h"
 #include "engine/geometry.h"
+#include "engine/mesh_topology.h"
 
 namespace lipmap {
 
@@ -50,6 +52,7 @@ struct TargetMeshOptions {
 struct TargetMesh {
   std::vector<Point2> vertices;  // vertices[k] == P.vertices[k] bit for bit for k < n
   std::vector<Triangle> faces;   // all strictly positive (counterclockwise)
+  MeshTopology topology;         // of `faces`, built once here; compose and refine walk M_t with it
   int pieces = 0;                // simple sub-polygons of the partition
   int interior_edge_splits = 0;  // points inserted on the partition's interior edges
   int steiner_points = 0;        // points the mesher inserted inside the pieces
@@ -69,9 +72,9 @@ struct TargetMesh {
 TargetMesh build_target_mesh(const BoundaryPolygon& polygon, const std::vector<Triangle>& coarse,
                              const TargetMeshOptions& options = {}, const CancelToken* cancel = nullptr);
 
-// The verification build_target_mesh runs on its result, exposed for tests and for the pipeline's own
-// verify stage: throws InternalError with the reason when `mesh` is not a valid target mesh for P and the
-// coarse triangulation.
+// The verification build_target_mesh runs on its result, exposed for tests: throws InternalError with the
+// reason when `mesh` is not a valid target mesh for P and the coarse triangulation. It reads mesh.faces
+// (and builds their topology itself), never mesh.topology.
 void verify_target_mesh(const BoundaryPolygon& polygon, const std::vector<Triangle>& coarse,
                         const TargetMesh& mesh);
 

@@ -1,26 +1,22 @@
 // Stage "validate": raw arrays -> DiskMesh + BoundaryMap (paper 3.1). The checks run in the order that
 // validate.h documents; each one is a full pass that reports the lowest offending index, so the answer
-// for a given input is deterministic. Everything is O(F) with hash maps on edges, or O(F log F).
+// for a given input is deterministic. The edge checks read the mesh's topology (engine/mesh_topology.h),
+// which is built here once and handed on in DiskMesh.
 #include "engine/validate.h"
 
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
 #include <numeric>
 #include <optional>
 #include <sstream>
 #include <string>
-#include <unordered_map>
 #include <utility>
 
-#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-
+#include "engine/detail/exact_predicates.h"
 #include "engine/error.h"
 
 namespace lipmap {
 namespace {
-
-using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 
 [[noreturn]] void reject(const std::string& code, const std::string& message, const std::string& element = {},
                          std::optional<long long> index = std::nullopt) {
@@ -99,13 +95,11 @@ void check_all_referenced(size_t n_vertices, const std::vector<Triangle>& faces)
   }
 }
 
-Kernel::Point_3 to_cgal(const Point3& p) { return Kernel::Point_3(p.x, p.y, p.z); }
-
 void check_no_degenerate_face(const std::vector<Point3>& vertices, const std::vector<Triangle>& faces) {
   for (size_t f = 0; f < faces.size(); ++f) {
     const Triangle& t = faces[f];
     // Exact predicate: a thin but valid triangle must never be mistaken for a flat one, and vice versa.
-    if (!CGAL::collinear(to_cgal(vertices[t[0]]), to_cgal(vertices[t[1]]), to_cgal(vertices[t[2]]))) continue;
+    if (!detail::collinear(vertices[t[0]], vertices[t[1]], vertices[t[2]])) continue;
     std::string why = "its corners " + s(t[0]) + ", " + s(t[1]) + ", " + s(t[2]) + " are collinear";
     for (int k = 0; k < 3; ++k) {
       int a = t[k], b = t[(k + 1) % 3];
@@ -141,65 +135,33 @@ void check_no_duplicate_face(const std::vector<Triangle>& faces) {
 
 // ---- edges -----------------------------------------------------------------------------------------
 
-// Half-edge h = 3f + k runs from corner k of face f to corner k+1: the face lies on its left.
-int from_vertex(const std::vector<Triangle>& faces, int h) { return faces[h / 3][h % 3]; }
-int to_vertex(const std::vector<Triangle>& faces, int h) { return faces[h / 3][(h % 3 + 1) % 3]; }
-
-// Undirected edges, numbered in order of first appearance when the faces are walked in order (the
-// numbering the TriMesh built from the same faces would use). The "edge" index in errors is this number.
-struct EdgeTable {
-  std::vector<int> first_use;  // per edge: offset into uses (CSR), size E + 1
-  std::vector<int> uses;       // half-edges of each edge, ascending
-  size_t size() const { return first_use.size() - 1; }
-  int count(size_t e) const { return first_use[e + 1] - first_use[e]; }
-  int use(size_t e, int i) const { return uses[first_use[e] + i]; }
-};
-
-EdgeTable build_edges(const std::vector<Triangle>& faces) {
-  const int n_halfedges = static_cast<int>(faces.size() * 3);
-  std::unordered_map<std::uint64_t, int> id;
-  id.reserve(faces.size() * 2);
-  std::vector<int> edge_of(n_halfedges);
-  for (int h = 0; h < n_halfedges; ++h) {
-    const int u = from_vertex(faces, h), v = to_vertex(faces, h);
-    const int a = std::min(u, v), b = std::max(u, v);
-    std::uint64_t key = (std::uint64_t(std::uint32_t(a)) << 32) | std::uint32_t(b);
-    edge_of[h] = id.emplace(key, static_cast<int>(id.size())).first->second;
-  }
-  EdgeTable table;
-  table.first_use.assign(id.size() + 1, 0);
-  for (int e : edge_of) ++table.first_use[e + 1];
-  std::partial_sum(table.first_use.begin(), table.first_use.end(), table.first_use.begin());
-  table.uses.resize(n_halfedges);
-  std::vector<int> fill(table.first_use.begin(), table.first_use.end() - 1);
-  for (int h = 0; h < n_halfedges; ++h) table.uses[fill[edge_of[h]]++] = h;
-  return table;
-}
-
-std::string edge_name(const std::vector<Triangle>& faces, int h) {
-  const int u = from_vertex(faces, h), v = to_vertex(faces, h);
+// The mesh's topology (engine/mesh_topology.h) numbers the undirected edges in order of first appearance;
+// the "edge" index in errors is that number. Half-edge h = 3f + k runs from corner k of face f to k + 1.
+std::string edge_name(const MeshTopology& mesh, int h) {
+  const int u = mesh.from(h), v = mesh.to(h);
   return "edge " + s(std::min(u, v)) + "-" + s(std::max(u, v));
 }
 
-void check_manifold_edges(const std::vector<Triangle>& faces, const EdgeTable& edges) {
-  for (size_t e = 0; e < edges.size(); ++e) {
-    if (edges.count(e) <= 2) continue;
+void check_manifold_edges(const MeshTopology& mesh) {
+  for (int e = 0; e < mesh.edge_count(); ++e) {
+    const HalfedgeRange uses = mesh.edge_uses(e);
+    if (uses.size() <= 2) continue;
     std::string list;
-    for (int i = 0; i < edges.count(e) && i < 8; ++i) list += (i ? ", " : "") + s(edges.use(e, i) / 3);
-    if (edges.count(e) > 8) list += ", ...";
-    reject("non_manifold_edge", edge_name(faces, edges.use(e, 0)) + " is shared by " + s(edges.count(e)) +
+    for (size_t i = 0; i < uses.size() && i < 8; ++i) list += (i ? ", " : "") + s(uses[i] / 3);
+    if (uses.size() > 8) list += ", ...";
+    reject("non_manifold_edge", edge_name(mesh, uses[0]) + " is shared by " + s(uses.size()) +
                                     " faces (" + list + "); at most two faces may meet at an edge", "edge", e);
   }
 }
 
-void check_orientation(const std::vector<Triangle>& faces, const EdgeTable& edges) {
-  for (size_t e = 0; e < edges.size(); ++e) {
-    if (edges.count(e) != 2) continue;
-    int h1 = edges.use(e, 0), h2 = edges.use(e, 1);
-    if (from_vertex(faces, h1) != from_vertex(faces, h2)) continue;
+void check_orientation(const MeshTopology& mesh) {
+  for (int e = 0; e < mesh.edge_count(); ++e) {
+    if (mesh.edge_use_count(e) != 2) continue;
+    const int h1 = mesh.edge_uses(e)[0], h2 = mesh.edge_uses(e)[1];
+    if (mesh.from(h1) != mesh.from(h2)) continue;
     reject("inconsistent_orientation",
-           "faces " + s(h1 / 3) + " and " + s(h2 / 3) + " both run along " + edge_name(faces, h1) +
-               " from vertex " + s(from_vertex(faces, h1)) + " to " + s(to_vertex(faces, h1)) +
+           "faces " + s(h1 / 3) + " and " + s(h2 / 3) + " both run along " + edge_name(mesh, h1) +
+               " from vertex " + s(mesh.from(h1)) + " to " + s(mesh.to(h1)) +
                ": neighbouring faces must list their shared edge in opposite directions (flip one of them)",
            "edge", e);
   }
@@ -224,14 +186,13 @@ private:
 
 // Corner c = 3f + k is vertex faces[f][k] seen from face f. Two corners of the same vertex belong to
 // one fan when their faces share an edge at that vertex; one fan per vertex is a manifold vertex.
-void check_manifold_vertices(const std::vector<Triangle>& faces, size_t n_vertices, const EdgeTable& edges) {
+void check_manifold_vertices(const std::vector<Triangle>& faces, size_t n_vertices, const MeshTopology& mesh) {
   DisjointSets fans(faces.size() * 3);
-  for (size_t e = 0; e < edges.size(); ++e) {
-    if (edges.count(e) != 2) continue;
-    int h1 = edges.use(e, 0), h2 = edges.use(e, 1);  // opposite directions: h1 = a->b, h2 = b->a
-    auto next_corner = [](int h) { return h - h % 3 + (h % 3 + 1) % 3; };
-    fans.unite(h1, next_corner(h2));   // corners of a
-    fans.unite(next_corner(h1), h2);   // corners of b
+  for (int e = 0; e < mesh.edge_count(); ++e) {
+    if (mesh.edge_use_count(e) != 2) continue;
+    const int h1 = mesh.edge_uses(e)[0], h2 = mesh.edge_uses(e)[1];  // opposite directions: h1 = a->b, h2 = b->a
+    fans.unite(h1, MeshTopology::next(h2));   // corners of a
+    fans.unite(MeshTopology::next(h1), h2);   // corners of b
   }
   std::vector<int> fan_of(n_vertices, -1);
   int bad = -1, face_a = -1, face_b = -1;
@@ -246,10 +207,10 @@ void check_manifold_vertices(const std::vector<Triangle>& faces, size_t n_vertic
                                       " meet only at this vertex (a surface pinched to a point)", "vertex", bad);
 }
 
-void check_connected(const std::vector<Triangle>& faces, const EdgeTable& edges) {
+void check_connected(const std::vector<Triangle>& faces, const MeshTopology& mesh) {
   DisjointSets parts(faces.size());
-  for (size_t e = 0; e < edges.size(); ++e)
-    if (edges.count(e) == 2) parts.unite(edges.use(e, 0) / 3, edges.use(e, 1) / 3);
+  for (int e = 0; e < mesh.edge_count(); ++e)
+    if (mesh.edge_use_count(e) == 2) parts.unite(mesh.edge_uses(e)[0] / 3, mesh.edge_uses(e)[1] / 3);
   int components = 0, first_outside = -1;
   for (int f = 0; f < static_cast<int>(faces.size()); ++f) {
     if (parts.find(f) != f) continue;
@@ -262,32 +223,6 @@ void check_connected(const std::vector<Triangle>& faces, const EdgeTable& edges)
 }
 
 // ---- boundary and topology ---------------------------------------------------------------------------
-
-// Follows boundary half-edges in face direction (interior on the left). Loops are listed by their lowest
-// vertex, each starting there. Requires manifold, consistently oriented faces.
-std::vector<std::vector<int>> boundary_loops(const std::vector<Triangle>& faces, size_t n_vertices,
-                                             const EdgeTable& edges) {
-  std::vector<int> next(n_vertices, -1);
-  for (size_t e = 0; e < edges.size(); ++e) {
-    if (edges.count(e) != 1) continue;
-    int h = edges.use(e, 0), a = from_vertex(faces, h);
-    if (next[a] >= 0) throw InternalError("validate: vertex " + s(a) + " has two outgoing boundary edges");
-    next[a] = to_vertex(faces, h);
-  }
-  std::vector<std::vector<int>> loops;
-  std::vector<char> seen(n_vertices, 0);
-  for (int start = 0; start < static_cast<int>(n_vertices); ++start) {
-    if (next[start] < 0 || seen[start]) continue;
-    std::vector<int> loop;
-    for (int v = start; !seen[v]; v = next[v]) {
-      if (next[v] < 0) throw InternalError("validate: boundary breaks off at vertex " + s(v));
-      seen[v] = 1;
-      loop.push_back(v);
-    }
-    loops.push_back(std::move(loop));
-  }
-  return loops;
-}
 
 void check_one_boundary_loop(const std::vector<std::vector<int>>& loops) {
   if (loops.empty())
@@ -310,21 +245,6 @@ void check_euler(size_t n_vertices, size_t n_edges, size_t n_faces) {
   reject("not_a_disk", "the mesh has one boundary loop but V - E + F = " + s(n_vertices) + " - " + s(n_edges) +
                            " + " + s(n_faces) + " = " + s(chi) + ", not 1: it has " + s((1 - chi) / 2) +
                            " handle(s) (e.g. a punctured torus); cut it into a disk first");
-}
-
-TriMesh build_trimesh(const std::vector<Point3>& vertices, const std::vector<Triangle>& faces) {
-  TriMesh mesh;
-  mesh.reserve(vertices.size(), faces.size() * 3 / 2 + 3, faces.size());
-  std::vector<TriMesh::VertexHandle> handles;
-  handles.reserve(vertices.size());
-  for (const Point3& p : vertices) handles.push_back(mesh.add_vertex(TriMesh::Point(p.x, p.y, p.z)));
-  for (size_t f = 0; f < faces.size(); ++f) {
-    const Triangle& t = faces[f];
-    auto fh = mesh.add_face(handles[t[0]], handles[t[1]], handles[t[2]]);
-    if (!fh.is_valid() || fh.idx() != static_cast<int>(f))
-      throw InternalError("validate: OpenMesh refused face " + s(f) + " of a mesh that passed every check");
-  }
-  return mesh;
 }
 
 // ---- boundary map ----------------------------------------------------------------------------------
@@ -417,20 +337,20 @@ DiskMesh validate_mesh(const RawMesh& raw) {
   check_no_degenerate_face(raw.vertices, faces);
   check_no_duplicate_face(faces);
 
-  const EdgeTable edges = build_edges(faces);
-  check_manifold_edges(faces, edges);
-  check_orientation(faces, edges);
-  check_manifold_vertices(faces, raw.vertices.size(), edges);
-  check_connected(faces, edges);
-  std::vector<std::vector<int>> loops = boundary_loops(faces, raw.vertices.size(), edges);
-  check_one_boundary_loop(loops);
-  check_euler(raw.vertices.size(), edges.size(), faces.size());
+  MeshTopology mesh(static_cast<int>(raw.vertices.size()), faces);
+  check_manifold_edges(mesh);
+  check_orientation(mesh);
+  check_manifold_vertices(faces, raw.vertices.size(), mesh);
+  if (!mesh.oriented_manifold()) throw InternalError("validate: a manifold, oriented mesh has no fans");
+  check_connected(faces, mesh);
+  check_one_boundary_loop(mesh.boundary_loops());
+  check_euler(raw.vertices.size(), static_cast<size_t>(mesh.edge_count()), faces.size());
 
   DiskMesh disk;
   disk.vertices = raw.vertices;
-  disk.boundary_loop = std::move(loops.front());
-  disk.mesh = build_trimesh(raw.vertices, faces);
+  disk.boundary_loop = mesh.boundary_loops().front();
   disk.faces = std::move(faces);
+  disk.topology = std::move(mesh);
   return disk;
 }
 

@@ -4,10 +4,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <cstdint>
 #include <string>
 
-#include "engine/detail/plane_angles.h"
+#include "engine/detail/exact_predicates.h"
 
 namespace lipmap {
 namespace {
@@ -21,25 +20,6 @@ double area3(const Point3& a, const Point3& b, const Point3& c) {
   const double vx = c.x - a.x, vy = c.y - a.y, vz = c.z - a.z;
   const double cx = uy * vz - uz * vy, cy = uz * vx - ux * vz, cz = ux * vy - uy * vx;
   return 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
-}
-
-std::uint64_t pair_key(int a, int b) {
-  return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(a)) << 32) | static_cast<std::uint32_t>(b);
-}
-
-// A sorted key list: cheaper than hash sets for the few hundred thousand edges of a large mesh.
-struct SortedKeys {
-  explicit SortedKeys(std::vector<std::uint64_t> k) : keys(std::move(k)) { std::sort(keys.begin(), keys.end()); }
-  bool contains(std::uint64_t key) const { return std::binary_search(keys.begin(), keys.end(), key); }
-  std::vector<std::uint64_t> keys;
-};
-
-SortedKeys undirected_edges(const std::vector<Triangle>& faces) {
-  std::vector<std::uint64_t> keys;
-  keys.reserve(faces.size() * 3);
-  for (const Triangle& t : faces)
-    for (int c = 0; c < 3; ++c) keys.push_back(pair_key(std::min(t[c], t[(c + 1) % 3]), std::max(t[c], t[(c + 1) % 3])));
-  return SortedKeys(std::move(keys));
 }
 
 }  // namespace
@@ -56,20 +36,16 @@ VerifyReport verify_map(const DiskMesh& source, const std::vector<int>& loop, co
   // 1. original vertices kept; inserted ones on an original interior edge at a + t (b - a).
   for (int v = 0; v < nv_source; ++v)
     if (!(map.vertices[v] == source.vertices[v])) fail("original vertex " + std::to_string(v) + " moved");
-  const SortedKeys source_edges = undirected_edges(source.faces);
-  std::vector<std::uint64_t> boundary_list;
+  // The source's edges and boundary edges (its boundary is the loop's edges): validate's topology.
+  const MeshTopology& source_mesh = source.topology;
+  auto source_edge = [&](int a, int b) { return a < nv_source && b < nv_source ? source_mesh.find_edge(a, b) : -1; };
   const int n = static_cast<int>(loop.size());
-  for (int k = 0; k < n; ++k) {
-    const int a = loop[k], b = loop[(k + 1) % n];
-    boundary_list.push_back(pair_key(std::min(a, b), std::max(a, b)));
-  }
-  const SortedKeys boundary_edges(std::move(boundary_list));
   for (std::size_t i = 0; i < map.inserted.size(); ++i) {
     const InsertedVertex& iv = map.inserted[i];
     const std::string name = "inserted vertex " + std::to_string(nv_source + i);
-    if (!(iv.a < iv.b) || iv.a < 0 || iv.b >= nv_source || !source_edges.contains(pair_key(iv.a, iv.b)))
-      fail(name + " is not on an original edge");
-    if (boundary_edges.contains(pair_key(iv.a, iv.b))) fail(name + " is on the boundary");
+    const int e = iv.a < iv.b && iv.a >= 0 && iv.b < nv_source ? source_edge(iv.a, iv.b) : -1;
+    if (e < 0) fail(name + " is not on an original edge");
+    if (source_mesh.is_boundary_edge(e)) fail(name + " is on the boundary");
     if (!(iv.t > 0 && iv.t < 1)) fail(name + " has t outside (0, 1)");
     const Point3 &pa = source.vertices[iv.a], &pb = source.vertices[iv.b];
     const Point3 expect{pa.x + iv.t * (pb.x - pa.x), pa.y + iv.t * (pb.y - pa.y), pa.z + iv.t * (pb.z - pa.z)};
@@ -93,17 +69,8 @@ VerifyReport verify_map(const DiskMesh& source, const std::vector<int>& loop, co
     const InsertedVertex& iv = map.inserted[v - nv_source];
     return iv.a == std::min(a, b) && iv.b == std::max(a, b);
   };
-  std::vector<std::uint64_t> directed_list;
-  directed_list.reserve(map.faces.size() * 3);
   double area = 0, source_area = 0;
-  // Corners around each vertex, compressed rows: (next, prev) of v in each of its faces.
-  std::vector<int> fan_begin(nv + 1, 0);
-  for (const Triangle& t : map.faces)
-    for (int v : t)
-      if (v >= 0 && v < nv) ++fan_begin[v + 1];
-  for (int v = 0; v < nv; ++v) fan_begin[v + 1] += fan_begin[v];
-  std::vector<std::pair<int, int>> fan(fan_begin[nv]);
-  std::vector<int> fill(fan_begin.begin(), fan_begin.end() - 1);
+  std::vector<char> used(nv, 0);
   for (std::size_t f = 0; f < map.faces.size(); ++f) {
     const Triangle& t = map.faces[f];
     for (int v : t)
@@ -113,11 +80,12 @@ VerifyReport verify_map(const DiskMesh& source, const std::vector<int>& loop, co
       const int a = t[c], b = t[(c + 1) % 3], o = t[(c + 2) % 3];
       if (on_edge(o, a, b) && (a < nv_source && b < nv_source))
         fail("face " + std::to_string(f) + " has all corners on original edge " + std::to_string(a) + "-" + std::to_string(b));
-      directed_list.push_back(pair_key(a, b));
-      fan[fill[a]++] = {b, o};
+      used[a] = 1;
     }
     area += area3(map.vertices[t[0]], map.vertices[t[1]], map.vertices[t[2]]);
   }
+  for (int v = 0; v < nv; ++v)
+    if (!used[v]) fail("vertex " + std::to_string(v) + " is used by no face");
   // A flat face with inserted corners only: all three on one original edge (a, b).
   for (std::size_t f = 0; f < map.faces.size(); ++f) {
     const Triangle& t = map.faces[f];
@@ -129,48 +97,46 @@ VerifyReport verify_map(const DiskMesh& source, const std::vector<int>& loop, co
              std::to_string(iv.b));
     }
   }
-  const SortedKeys directed(std::move(directed_list));
-  for (std::size_t i = 1; i < directed.keys.size(); ++i)
-    if (directed.keys[i] == directed.keys[i - 1])
-      fail("directed edge " + std::to_string(directed.keys[i] >> 32) + "-" + std::to_string(directed.keys[i] & 0xffffffffu) +
-           " is used twice");
-  for (const std::uint64_t key : directed.keys) {
-    const int a = static_cast<int>(key >> 32), b = static_cast<int>(key & 0xffffffffu);
-    if (!directed.contains(pair_key(b, a))) {  // a boundary edge of the result: must be a source boundary edge
-      if (a >= nv_source || b >= nv_source || !boundary_edges.contains(pair_key(std::min(a, b), std::max(a, b))))
+  // The result's own topology: an oriented manifold whose boundary edges are source boundary edges.
+  const MeshTopology mesh(nv, map.faces);
+  for (int e = 0; e < mesh.edge_count(); ++e) {
+    const HalfedgeRange uses = mesh.edge_uses(e);
+    const int a = mesh.from(uses[0]), b = mesh.to(uses[0]);
+    if (uses.size() > 2 || (uses.size() == 2 && mesh.from(uses[1]) == a))
+      fail("directed edge " + std::to_string(a) + "-" + std::to_string(b) + " is used twice");
+    if (uses.size() == 1) {
+      const int se = source_edge(a, b);
+      if (se < 0 || !source_mesh.is_boundary_edge(se))
         fail("edge " + std::to_string(a) + "-" + std::to_string(b) + " is on the result's boundary but not the source's");
     }
   }
+  if (!mesh.oriented_manifold())
+    fail("faces around vertex " + std::to_string(mesh.first_vertex_with_broken_fan()) + " are not one fan");
   for (const Triangle& t : source.faces) source_area += area3(source.vertices[t[0]], source.vertices[t[1]], source.vertices[t[2]]);
   report.area_relative_error = std::abs(area - source_area) / source_area;
   if (!(report.area_relative_error <= 1e-9)) fail("3D area changed by a relative " + std::to_string(report.area_relative_error));
 
-  // 4. angle sums: one full turn at interior vertices, alpha_k + 2 pi R_k at boundary vertex k.
+  // 4. angle sums: one full turn at interior vertices, alpha_k + 2 pi R_k at boundary vertex k. The fan is
+  // clockwise; the corners' sweeps chain counterclockwise, so it is read backwards.
   for (int v = 0; v < nv; ++v) {
-    const auto begin = fan.begin() + fan_begin[v], end = fan.begin() + fan_begin[v + 1];
-    if (begin == end) fail("vertex " + std::to_string(v) + " is used by no face");
-    std::sort(begin, end);
-    const std::vector<std::pair<int, int>> corners(begin, end);
+    const HalfedgeRange fan = mesh.fan(v);
     const int k = boundary_index[v];
-    const int first = k >= 0 ? loop[(k + 1) % n] : corners[0].first;
-    const int last = k >= 0 ? loop[(k + n - 1) % n] : corners[0].first;
-    int at = first, turns = 0;
-    for (std::size_t step = 0; step < corners.size(); ++step) {
-      auto it = std::lower_bound(corners.begin(), corners.end(), std::pair<int, int>{at, -1});
-      if (it == corners.end() || it->first != at) fail("faces around vertex " + std::to_string(v) + " are not one fan");
-      turns += detail::extra_turn(uv[v], uv[first], uv[at], uv[it->second]);
-      at = it->second;
-    }
-    if (at != last) fail("faces around vertex " + std::to_string(v) + " do not close up");
+    const int first = mesh.to(fan.back()), last = mesh.from(MeshTopology::prev(fan.front()));
+    if (mesh.is_boundary_vertex(v) != (k >= 0))
+      fail("vertex " + std::to_string(v) + (k >= 0 ? " is not on the result's boundary" : " is on the result's boundary"));
+    if (k >= 0 && (first != loop[(k + 1) % n] || last != loop[(k + n - 1) % n]))
+      fail("faces around vertex " + std::to_string(v) + " do not run from its next boundary vertex to its previous one");
+    detail::TurnCount count(uv[v], uv[first]);
+    for (std::size_t i = fan.size(); i-- > 0;) count.add(uv[mesh.to(fan[i])], uv[mesh.from(MeshTopology::prev(fan[i]))]);
     if (k < 0) {
-      if (turns != 1) fail("interior vertex " + std::to_string(v) + " has angle sum " + std::to_string(turns) + " x 2 pi");
+      if (count.turns() != 1)
+        fail("interior vertex " + std::to_string(v) + " has angle sum " + std::to_string(count.turns()) + " x 2 pi");
       ++report.interior_vertices_checked;
     } else {
-      const Pt &next = uv[first], &prev = uv[last];
-      const int spike = detail::sector(uv[v], next, prev) == 0 ? 1 : 0;
-      if (turns - spike != rotation[k])
-        fail("boundary vertex " + std::to_string(v) + " has rotation index " + std::to_string(turns - spike) +
-             " instead of " + std::to_string(rotation[k]));
+      const int r = detail::rotation_index(uv[v], uv[first], uv[last], count.turns());
+      if (r != rotation[k])
+        fail("boundary vertex " + std::to_string(v) + " has rotation index " + std::to_string(r) + " instead of " +
+             std::to_string(rotation[k]));
     }
   }
   report.faces_checked = static_cast<int>(map.faces.size());

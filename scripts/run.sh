@@ -28,8 +28,10 @@ echo "== lipmap serve on $url (logs: one JSON line per request on stderr)" >&2
 # makes the service cancel in-flight work instead of letting it finish).
 setsid "$build_dir/server/lipmap" serve &
 server=$!
-# Ctrl-C / SIGTERM: the service drains and exits 0; this script then exits with it.
+# Ctrl-C / SIGTERM: the service drains and exits 0; this script then exits with it. Any other way out of
+# this script (a failed step below) stops the service too, so that it never stays behind holding the port.
 trap 'kill -TERM "$server" 2>/dev/null || true' INT TERM
+trap 'if kill -0 "$server" 2>/dev/null; then kill -TERM "$server"; wait "$server" 2>/dev/null || true; fi' EXIT
 
 ready=""
 for _ in $(seq 100); do
@@ -45,11 +47,13 @@ if [[ -z "$ready" ]]; then
 fi
 
 show() {  # show DESCRIPTION CURL-ARGS...: prints the command and the first part of its answer
-  local what="$1"; shift
+  local what="$1" answer; shift
   echo >&2
   echo "\$ curl $*"
-  curl -sS "$@" | head -c 700
-  echo
+  # The whole answer first, then its head: a pipe into `head` would make curl fail (exit 23) when head
+  # closes it early, and under pipefail that ended the script.
+  answer="$(curl -sS "$@")"
+  printf '%s\n' "${answer:0:700}"
 }
 show "liveness" "$url/healthz"
 show "classify" --json "@$polygon" "$url/v1/polygons/classify"

@@ -24,7 +24,10 @@ fi
 npm ci --no-audit --no-fund --loglevel=error
 
 echo "== build ($build_dir, Release)"
-cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_COMPILER_LAUNCHER=ccache
+# CI builds with warnings as errors; a developer's build only shows them.
+werror=OFF
+if [[ "${CI:-}" == true ]]; then werror=ON; fi
+cmake -S . -B "$build_dir" -DCMAKE_BUILD_TYPE=Release -DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DLIPMAP_WERROR="$werror"
 cmake --build "$build_dir" -j "$jobs"
 
 export LIPMAP_BIN="$root/$build_dir/server/lipmap"
@@ -44,6 +47,12 @@ if summary=$(grep -E '[0-9]+ tests failed out of [0-9]+' "$logs/ctest.log" | tai
   t=$(sed -E 's/.* ([0-9]+) tests failed out of ([0-9]+).*/\2/' <<<"$summary")
   passed=$((passed + t - f)) failed=$((failed + f))
 fi
+
+echo "== layout"
+bash tests/layout/check_layout.sh 2>&1 | tee "$logs/layout.log"
+[[ ${PIPESTATUS[0]} -eq 0 ]] || failed_steps+=(layout)
+p=$(grep -cE '^ok [0-9]+' "$logs/layout.log") f=$(grep -cE '^not ok [0-9]+' "$logs/layout.log")
+passed=$((passed + p)) failed=$((failed + f))
 
 for suite in tests/cli tests/http; do
   compgen -G "$suite/*.bats" >/dev/null || continue

@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "engine/cancel.h"
-#include "engine/detail/plane_angles.h"
+#include "engine/detail/exact_predicates.h"
 #include "engine/geometry.h"
 
 namespace lipmap::detail {

@@ -21,9 +21,6 @@ bool is_simple_polygon(const std::vector<Point2>& polygon);
 // edge of B whose bounding box it meets (A and B are simple themselves, and lie on either side of ab).
 bool glued_union_is_simple(const std::vector<Point2>& a_path, const std::vector<Point2>& b_path);
 
-// Exact orientation of (a, b, c): +1 counterclockwise, -1 clockwise, 0 collinear.
-int orientation(const Point2& a, const Point2& b, const Point2& c);
-
 // Signed area (shoelace, doubles).
 double signed_area(const std::vector<Point2>& polygon);
 

@@ -1,5 +1,5 @@
 // Shor–van Wyk triangulation of a (weakly) self-overlapping polygon with prescribed triangulation angles
-// (paper 3.1, 3.2, App. B). Internal to the classify stage; includes CGAL through plane_angles.h.
+// (paper 3.1, 3.2, App. B). Internal to the classify stage; includes CGAL through exact_predicates.h.
 #pragma once
 
 #include <cstddef>
@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "engine/cancel.h"
-#include "engine/detail/plane_angles.h"
+#include "engine/detail/exact_predicates.h"
 #include "engine/geometry.h"
 
 namespace lipmap::detail {

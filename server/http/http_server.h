@@ -1,6 +1,6 @@
-// The HTTP service (DESIGN.md section 4, issue 4): routes, RFC 7807 problem answers, limits, jobs, metrics,
-// structured request logs. cpp-httplib stays inside http_server.cpp; this header is all the `serve`
-// subcommand needs.
+// The HTTP service (docs/architecture.md, docs/api.md): routes, RFC 7807 problem answers, limits, jobs,
+// metrics, structured request logs. cpp-httplib stays inside server/http's .cpp files; this header is all the
+// `serve` subcommand needs.
 //
 // Threads: cpp-httplib's connection threads only parse bodies, enqueue work and answer; every engine call
 // runs on the WorkerPool (a fixed number of workers behind a bounded queue). A synchronous request waits for

@@ -1,4 +1,4 @@
-// The engine's fixed worker pool behind a bounded queue (DESIGN.md section 4): HTTP threads only parse,
+// The engine's fixed worker pool behind a bounded queue (docs/architecture.md): HTTP threads only parse,
 // enqueue and answer; every engine call runs here. A full queue refuses new work at once (the HTTP layer
 // answers 503 + Retry-After) instead of letting latency grow without bound.
 #pragma once

@@ -279,22 +279,19 @@ TEST(ValidateTest, BoundaryLoopFollowsFaceDirectionFromLowestVertex) {
   EXPECT_EQ(validate_mesh(fan).boundary_loop, (std::vector<int>{1, 6, 5, 4, 3, 2}));
 }
 
-TEST(ValidateTest, DiskMeshKeepsIndicesAndBuildsTheTriMesh) {
+TEST(ValidateTest, DiskMeshKeepsIndicesAndBuildsTheTopology) {
   RawMesh raw = grid(4, 3);
   DiskMesh disk = validate_mesh(raw);
-  ASSERT_EQ(disk.mesh.n_vertices(), raw.vertices.size());
-  ASSERT_EQ(disk.mesh.n_faces(), raw.faces.size());
-  for (size_t v = 0; v < raw.vertices.size(); ++v) {
-    auto p = disk.mesh.point(TriMesh::VertexHandle(int(v)));
-    EXPECT_EQ(p[0], raw.vertices[v].x);
-    EXPECT_EQ(p[1], raw.vertices[v].y);
-  }
+  ASSERT_EQ(disk.topology.vertex_count(), static_cast<int>(raw.vertices.size()));
+  ASSERT_EQ(disk.topology.face_count(), static_cast<int>(raw.faces.size()));
+  for (size_t v = 0; v < raw.vertices.size(); ++v) EXPECT_TRUE(disk.vertices[v] == raw.vertices[v]);
   for (size_t f = 0; f < raw.faces.size(); ++f) {
     Triangle t{int(raw.faces[f][0]), int(raw.faces[f][1]), int(raw.faces[f][2])};
     EXPECT_EQ(disk.faces[f], t);
-    EXPECT_TRUE(disk.mesh.find_halfedge(TriMesh::VertexHandle(t[0]), TriMesh::VertexHandle(t[1])).is_valid());
-    auto h = disk.mesh.find_halfedge(TriMesh::VertexHandle(t[0]), TriMesh::VertexHandle(t[1]));
-    EXPECT_EQ(disk.mesh.face_handle(h).idx(), int(f));
+    for (int k = 0; k < 3; ++k) {
+      EXPECT_EQ(disk.topology.from(3 * int(f) + k), t[k]);
+      EXPECT_EQ(disk.topology.to(3 * int(f) + k), t[(k + 1) % 3]);
+    }
   }
 }
 
@@ -347,7 +344,7 @@ TEST(ValidateTestProperty, RandomGridDisksHaveTheirBorderAsLoopWithInteriorOnThe
       twice_area += raw.vertices[a].x * raw.vertices[b].y - raw.vertices[b].x * raw.vertices[a].y;
     }
     EXPECT_EQ(twice_area, 2.0 * (w - 1) * (h - 1));  // counterclockwise: interior on the left
-    EXPECT_EQ(disk.mesh.n_faces(), raw.faces.size());
+    EXPECT_EQ(disk.topology.face_count(), static_cast<int>(raw.faces.size()));
   }
 }
 
@@ -523,22 +520,26 @@ TEST_P(ValidateTestShared, ValidatesWithReadmeCounts) {
   EXPECT_EQ(disk.vertices.size(), expected.vertices);
   EXPECT_EQ(disk.faces.size(), expected.faces);
   EXPECT_EQ(disk.boundary_loop.size(), expected.boundary_vertices);
-  EXPECT_EQ(disk.mesh.n_vertices(), expected.vertices);
-  EXPECT_EQ(disk.mesh.n_faces(), expected.faces);
+  EXPECT_EQ(disk.topology.vertex_count(), static_cast<int>(expected.vertices));
+  EXPECT_EQ(disk.topology.face_count(), static_cast<int>(expected.faces));
 
-  // Independent of validate's own walk: OpenMesh's boundary half-edges, in face direction, are the
-  // reverses of the loop's steps (the loop has the faces on its left).
+  // Independent of validate's own walk: every step of the loop is a directed edge of a face (the faces on
+  // its left) whose reverse no face has.
+  std::set<std::pair<int, int>> directed;
+  for (const Triangle& t : disk.faces)
+    for (int c = 0; c < 3; ++c) directed.insert({t[c], t[(c + 1) % 3]});
   const auto& loop = disk.boundary_loop;
   EXPECT_EQ(*std::min_element(loop.begin(), loop.end()), loop.front());
   for (size_t k = 0; k < loop.size(); ++k) {
-    auto a = TriMesh::VertexHandle(loop[k]), b = TriMesh::VertexHandle(loop[(k + 1) % loop.size()]);
-    auto h = disk.mesh.find_halfedge(a, b);
-    ASSERT_TRUE(h.is_valid());
-    ASSERT_FALSE(disk.mesh.is_boundary(h)) << "step " << k << " has no face on its left";
-    ASSERT_TRUE(disk.mesh.is_boundary(disk.mesh.opposite_halfedge_handle(h)));
+    const int a = loop[k], b = loop[(k + 1) % loop.size()];
+    ASSERT_TRUE(directed.count({a, b})) << "step " << k << " has no face on its left";
+    ASSERT_FALSE(directed.count({b, a})) << "step " << k << " is not a boundary edge";
   }
   size_t boundary_vertices = 0;
-  for (auto v : disk.mesh.vertices()) boundary_vertices += disk.mesh.is_boundary(v);
+  std::set<int> on_boundary;
+  for (const auto& [a, b] : directed)
+    if (!directed.count({b, a})) on_boundary.insert(a);
+  boundary_vertices = on_boundary.size();
   EXPECT_EQ(boundary_vertices, expected.boundary_vertices);
 }
 

@@ -1,10 +1,10 @@
 #!/usr/bin/env bats
-# glTF through the HTTP service (issue 5), the real `lipmap serve` on a free loopback port: the request forms
+# glTF through the HTTP service, the real `lipmap serve` on a free loopback port: the request forms
 # (model/gltf-binary and model/gltf+json bodies with boundary=texcoord:N, multipart/form-data with parts model
 # and boundary, the JSON envelope with gltf_base64), answers by Accept (model/gltf-binary, model/gltf+json, or
 # the JSON answer), jobs, and bad glTF answered with a 4xx problem while the server keeps serving. Inputs are
 # the test disk meshes converted at test time (tests/tools/gltf_fixture.js); every glTF answer passes
-# Khronos's validator and tests/tools/gltf_check_map.js (DESIGN.md section 2 on the float32 uv as stored).
+# Khronos's validator and tests/tools/gltf_check_map.js (docs/contract.md on the float32 uv as stored).
 
 bats_require_minimum_version 1.5.0
 load helpers/server

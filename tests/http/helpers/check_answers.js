@@ -6,7 +6,7 @@
 // MANIFEST has one check per line:
 //   schema NAME FILE       FILE validates against proto/NAME (ajv 2020-12, strict, formats), loaded exactly as
 //                          tests/tools/validate_json.js loads them
-//   map REQUEST ANSWER     ANSWER (a parametrize answer) passes the checks of DESIGN.md section 2 for REQUEST
+//   map REQUEST ANSWER     ANSWER (a parametrize answer) passes the checks of docs/contract.md for REQUEST
 //   metrics FILE           FILE is Prometheus text format with the service's metric families
 // Prints one line per failure and exits 1 when any check fails; prints "check_answers: N checks passed".
 "use strict";
@@ -68,7 +68,7 @@ function orientSign(a, b, c) {
   return exactOrientSign(a, b, c);
 }
 
-// ---- DESIGN.md section 2 ------------------------------------------------------------------------------
+// ---- docs/contract.md ------------------------------------------------------------------------------
 
 function triangleArea3(p, q, r) {
   const u = [q[0] - p[0], q[1] - p[1], q[2] - p[2]], v = [r[0] - p[0], r[1] - p[1], r[2] - p[2]];

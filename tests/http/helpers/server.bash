@@ -1,5 +1,5 @@
 # Shared by the tests/http/*.bats suites: start the real `lipmap serve` on a free loopback port, call it with
-# curl, and collect every answer for check_answers.js (JSON Schemas of proto/, DESIGN.md section 2 checks).
+# curl, and collect every answer for check_answers.js (JSON Schemas of proto/, docs/contract.md checks).
 # Everything targets 127.0.0.1; every loop is bounded.
 #
 # Needs: curl, jq, node with the dev dependencies of package.json (npm ci), and a built binary: $LIPMAP_BIN,
@@ -104,7 +104,7 @@ expect() {
   fi
 }
 
-# check_map REQUEST_FILE: the last answer (a parametrize answer) is checked against DESIGN.md section 2.
+# check_map REQUEST_FILE: the last answer (a parametrize answer) is checked against docs/contract.md.
 check_map() {
   echo "schema parametrize-answer.schema.json $answer" >>"$BATS_TEST_TMPDIR/manifest"
   echo "map $1 $answer" >>"$BATS_TEST_TMPDIR/manifest"

@@ -1,0 +1,76 @@
+// The handlers of the HTTP service, one file per resource:
+//   parametrize_handler.cpp  POST /v1/parametrize
+//   classify_handler.cpp     POST /v1/polygons/classify
+//   jobs_handler.cpp         POST /v1/jobs, GET|DELETE /v1/jobs/{id}, GET /v1/jobs/{id}/result,
+//                            GET /v1/jobs/{id}/preview.svg
+//   operations_handler.cpp   GET /healthz, /readyz, /metrics, /version, /v1/openapi.json,
+//                            /v1/{schema}.schema.json
+// server/http/routes.cpp binds them to their paths. A handler parses on the connection thread and runs engine
+// work on the worker pool (Service::run_sync), or hands it to a job.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <variant>
+
+#include "engine/cancel.h"
+#include "engine/pipeline.h"
+#include "server/codec/gltf_codec.h"
+#include "server/codec/json_codec.h"
+#include "server/http/problems.h"
+#include "server/http/service.h"
+
+namespace httplib {
+struct Request;
+}
+
+namespace lipmap::server {
+
+Answer post_parametrize(Service& service, const httplib::Request& req);
+Answer post_classify(Service& service, const httplib::Request& req);
+Answer post_job(Service& service, const httplib::Request& req);
+Answer get_job(Service& service, const httplib::Request& req);
+Answer delete_job(Service& service, const httplib::Request& req);
+Answer get_job_result(Service& service, const httplib::Request& req);
+Answer get_job_preview(Service& service, const httplib::Request& req);
+Answer get_healthz(Service& service, const httplib::Request& req);
+Answer get_readyz(Service& service, const httplib::Request& req);
+Answer get_metrics(Service& service, const httplib::Request& req);
+Answer get_version(Service& service, const httplib::Request& req);
+Answer get_openapi(Service& service, const httplib::Request& req);
+Answer get_schema(Service& service, const httplib::Request& req);
+
+// ---- shared by the parametrize, classify and jobs handlers (parametrize_handler.cpp) ----
+
+// 415 unless the body is application/json.
+std::optional<Answer> require_json(const httplib::Request& req);
+
+// A parametrize body parsed on the connection thread; glTF requests also keep their document (to answer
+// in it).
+struct ParsedParametrize {
+  std::shared_ptr<const codec::ParametrizeRequest> request;
+  std::shared_ptr<const gltf::Asset> asset;  // glTF requests only
+};
+// The parsed request, or the answer refusing it.
+std::variant<ParsedParametrize, Answer> parse_parametrize(Service& service, const httplib::Request& req);
+
+// The engine's parametrize on a worker, with its stage timings recorded in the metrics.
+struct MapOutcome {
+  std::shared_ptr<const std::string> json;
+  std::shared_ptr<const ParametrizeResult> result;
+};
+MapOutcome run_map(const codec::ParametrizeRequest& request, const CancelToken& token, const ProgressFn& progress,
+                   Metrics& metrics);
+
+// A parametrize answer in glTF: the request's document with the refined primitive, or a fresh document for
+// a JSON request.
+Answer gltf_answer(const std::shared_ptr<const gltf::Asset>& asset, const ParametrizeResult& result, gltf::Format f);
+
+// ---- jobs (jobs_handler.cpp), also used by the shutdown ----
+
+// Records a job that reached a final state (metrics, log line, the store's retention).
+void finish_job(Service& service, const std::shared_ptr<Job>& job);
+// Cancels every unfinished job; those still queued end at once (503 shutting_down).
+void cancel_unfinished_jobs(Service& service, CancelReason reason);
+
+}  // namespace lipmap::server

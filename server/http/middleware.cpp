@@ -1,0 +1,175 @@
+#include "server/http/middleware.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+
+#include "server/codec/error_table.h"
+#include "server/http/job_store.h"
+
+// Last: with its OpenSSL support cpp-httplib pulls in <resolv.h>, whose `_res` macro breaks Eigen's headers.
+#include <httplib.h>
+
+namespace lipmap::server {
+
+using nlohmann::ordered_json;
+
+namespace {
+
+thread_local RequestContext tl_request;
+
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+bool acceptable_request_id(const std::string& s) {
+  if (s.empty() || s.size() > 128) return false;
+  return std::all_of(s.begin(), s.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.' || c == ':';
+  });
+}
+
+}  // namespace
+
+RequestContext& this_request() { return tl_request; }
+
+void begin_request(const httplib::Request& req, httplib::Response& res) {
+  tl_request = RequestContext{};
+  tl_request.active = true;
+  tl_request.start = Clock::now();
+  const std::string incoming = req.get_header_value("X-Request-Id");
+  tl_request.id = acceptable_request_id(incoming) ? incoming : new_job_id().substr(0, 16);
+  res.set_header("X-Request-Id", tl_request.id);
+}
+
+void send(httplib::Response& res, Answer a) {
+  res.status = a.status;
+  for (auto& [k, v] : a.headers) res.set_header(k.c_str(), v);
+  if (a.problem) {
+    (*a.problem)["request_id"] = tl_request.id;
+    tl_request.problem_code = a.problem->value("code", "");
+    res.set_content(a.problem->dump(-1, ' ', false, ordered_json::error_handler_t::replace),
+                    "application/problem+json");
+  } else if (a.shared_body) {
+    // Copied, not streamed: cpp-httplib stops content providers as soon as the server stops, which would
+    // cut off the answers that SIGTERM lets finish.
+    res.set_content(*a.shared_body, a.content_type);
+  } else if (!a.content_type.empty()) {
+    res.set_content(a.body, a.content_type);
+  }
+}
+
+void run_handler(Service& service, const Operation& operation, const httplib::Request& req, httplib::Response& res) {
+  try {
+    send(res, operation.handler(service, req));
+  } catch (...) {
+    ordered_json p = current_exception_problem(operation.input, CancelReason::none, service.config.deadline_seconds);
+    service.event(spdlog::level::err, {{"event", "handler_error"}, {"request_id", tl_request.id}, {"path", req.path},
+                                       {"detail", p.value("detail", "")}});
+    send(res, problem_answer(std::move(p)));
+  }
+}
+
+bool pre_routing(const httplib::Request& req, httplib::Response& res) {
+  begin_request(req, res);
+  // cpp-httplib 0.11 waits for the read timeout on a POST without Content-Length, and reads chunked
+  // bodies without its size limit: answer both before any body is read.
+  const bool body_method = req.method == "POST" || req.method == "PUT" || req.method == "PATCH";
+  const bool chunked = lower(req.get_header_value("Transfer-Encoding")).find("chunked") != std::string::npos;
+  if (!body_method || (!chunked && req.has_header("Content-Length"))) return false;
+  const Route* route = route_of(req.path);
+  Answer a;
+  if (!route) {
+    a = problem_answer("not_found", "no route for " + req.method + " " + req.path.substr(0, 200));
+  } else if (!route->allows(req.method)) {
+    a = method_not_allowed(*route, req.method);
+  } else {
+    a = problem_answer("length_required", chunked
+                                              ? "chunked request bodies are not accepted; send the body with a Content-Length"
+                                              : "the request has no Content-Length; send the body with one");
+  }
+  // A chunked body that was not read cannot be followed by another request on this connection.
+  if (chunked) a.headers.emplace_back("Connection", "close");
+  send(res, std::move(a));
+  return true;
+}
+
+bool error_answer(const Service& service, const httplib::Request& req, httplib::Response& res) {
+  if (!tl_request.active) begin_request(req, res);
+  if (!res.has_header("X-Request-Id")) res.set_header("X-Request-Id", tl_request.id);
+  if (!res.body.empty() || res.content_length_ > 0) return false;
+  Answer a;
+  const Route* route = route_of(req.path);
+  if (res.status == 404 && route) {
+    a = method_not_allowed(*route, req.method);
+  } else if (res.status == 404) {
+    std::string path = req.path.size() > 200 ? req.path.substr(0, 200) + "..." : req.path;
+    a = problem_answer("not_found", "no route for " + req.method + " " + path + " (see /v1/openapi.json)");
+  } else if (res.status == 413) {
+    a = problem_answer("payload_too_large", "the body is larger than this service's limit of " +
+                                                std::to_string(service.config.max_body_bytes) + " bytes");
+    (*a.problem)["limit_bytes"] = service.config.max_body_bytes;
+  } else if (res.status == 414) {
+    a = problem_answer("uri_too_long", "the request target is too long");
+  } else if (res.status == 400) {
+    a = problem_answer("bad_request", "the request line, headers or body framing are malformed");
+  } else if (res.status >= 500) {
+    a = problem_answer("internal_error", "the request failed inside the HTTP layer");
+  } else {
+    // cpp-httplib's other refusals (416, 417): http_<status>, when the error table knows it.
+    const std::string code = "http_" + std::to_string(res.status);
+    if (codec::has_error_info(code))
+      a = problem_answer(code, "the request was refused: " + std::string(codec::error_info(code).title));
+    else
+      a = problem_answer("bad_request", "the request was refused (HTTP " + std::to_string(res.status) + ")");
+  }
+  send(res, std::move(a));
+  return true;
+}
+
+void exception_answer(const Service& service, const httplib::Request& req, httplib::Response& res,
+                      std::exception_ptr error) {
+  if (!tl_request.active) begin_request(req, res);
+  ordered_json p;
+  try {
+    std::rethrow_exception(error);
+  } catch (...) {
+    p = current_exception_problem(InputKind::none, CancelReason::none, service.config.deadline_seconds);
+  }
+  send(res, problem_answer(std::move(p)));
+}
+
+void log_request(Service& service, const httplib::Request& req, const httplib::Response& res) {
+  if (!tl_request.active) {  // cpp-httplib answered before routing and without an error body
+    tl_request.active = true;
+    tl_request.start = Clock::now();
+    tl_request.id = res.get_header_value("X-Request-Id");
+  }
+  const double ms = ms_since(tl_request.start);
+  const Route* route = route_of(req.path);
+  const std::string route_name = route ? route->path : "unmatched";
+  service.metrics.observe_request(route_name, req.method, res.status, ms / 1000.0);
+  const auto level = res.status >= 500 ? (res.status == 500 ? spdlog::level::err : spdlog::level::warn)
+                                       : spdlog::level::info;
+  auto rounded = [](double v) { return std::round(v * 1000) / 1000; };
+  std::string path = req.path.size() > 256 ? req.path.substr(0, 256) + "..." : req.path;
+  ordered_json fields{{"event", "request"},
+                      {"request_id", tl_request.id},
+                      {"method", req.method},
+                      {"path", path},
+                      {"route", route_name},
+                      {"status", res.status},
+                      {"ms", rounded(ms)},
+                      {"bytes_in", req.body.size()},
+                      {"bytes_out", res.body.empty() ? res.content_length_ : res.body.size()},
+                      {"remote", req.remote_addr}};
+  if (!tl_request.problem_code.empty()) fields["code"] = tl_request.problem_code;
+  if (tl_request.parse_ms >= 0) fields["parse_ms"] = rounded(tl_request.parse_ms);
+  if (tl_request.queue_ms >= 0) fields["queue_ms"] = rounded(tl_request.queue_ms);
+  if (tl_request.work_ms >= 0) fields["work_ms"] = rounded(tl_request.work_ms);
+  service.event(level, std::move(fields));
+  tl_request = RequestContext{};
+}
+
+}  // namespace lipmap::server

@@ -1,0 +1,179 @@
+// POST /v1/parametrize, and the parsing and engine call that POST /v1/jobs shares with it.
+#include <cctype>
+#include <map>
+#include <optional>
+#include <string>
+
+#include "server/http/handlers.h"
+#include "server/http/middleware.h"
+
+// Last: with its OpenSSL support cpp-httplib pulls in <resolv.h>, whose `_res` macro breaks Eigen's headers.
+#include <httplib.h>
+
+namespace lipmap::server {
+
+using nlohmann::json;
+
+namespace {
+
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+std::string trim(const std::string& s) {
+  const auto b = s.find_first_not_of(" \t");
+  if (b == std::string::npos) return {};
+  const auto e = s.find_last_not_of(" \t");
+  return s.substr(b, e - b + 1);
+}
+
+lipmap::ParametrizeOptions to_engine_options(const codec::ParametrizeOptions& o) {
+  lipmap::ParametrizeOptions out;
+  out.method = o.method == codec::MapMethod::tutte ? lipmap::MapMethod::tutte : lipmap::MapMethod::harmonic;
+  out.refine = o.refine;
+  out.target_density = o.target_density;
+  return out;
+}
+
+std::optional<Answer> check_mesh_limits(const ServerConfig& config, const codec::ParametrizeRequest& r) {
+  if (r.mesh.vertices.size() > config.max_vertices)
+    return problem_answer("mesh_too_large",
+                          "the mesh has " + std::to_string(r.mesh.vertices.size()) +
+                              " vertices; this service takes at most " + std::to_string(config.max_vertices),
+                          std::string("/mesh/vertices"));
+  if (r.mesh.faces.size() > config.max_faces)
+    return problem_answer("mesh_too_large",
+                          "the mesh has " + std::to_string(r.mesh.faces.size()) +
+                              " faces; this service takes at most " + std::to_string(config.max_faces),
+                          std::string("/mesh/faces"));
+  if (r.boundary.positions.size() > config.max_polygon_vertices)
+    return problem_answer("polygon_too_large",
+                          "the boundary has " + std::to_string(r.boundary.positions.size()) +
+                              " positions; this service takes at most " + std::to_string(config.max_polygon_vertices),
+                          std::string("/boundary/positions"));
+  return std::nullopt;
+}
+
+// A glTF parametrize request (server/codec/gltf_codec.h: model/gltf-binary, model/gltf+json,
+// multipart/form-data, or a JSON envelope with gltf_base64); query parameters mesh, primitive, weld,
+// boundary (texcoord:N).
+std::variant<ParsedParametrize, Answer> parse_gltf_parametrize(const Service& service, const httplib::Request& req,
+                                                               const json* envelope,
+                                                               std::optional<gltf::Format> model_format) {
+  gltf::Params params;
+  auto param = [&](const char* name) -> std::optional<std::string> {
+    if (!req.has_param(name)) return std::nullopt;
+    return req.get_param_value(name);
+  };
+  params.mesh = param("mesh");
+  params.primitive = param("primitive");
+  params.weld = param("weld");
+  params.boundary = param("boundary");
+  std::optional<gltf::Request> r;
+  try {
+    if (envelope) {
+      r = gltf::request_from_envelope(*envelope, params);
+    } else if (model_format) {
+      r = gltf::request_from_model(req.body, *model_format, params);
+    } else {
+      std::map<std::string, gltf::Part> parts;
+      for (const auto& [name, file] : req.files) {
+        if (parts.count(name)) throw gltf::GltfError("gltf_invalid_request", "multipart part \"" + name + "\" is given twice");
+        parts[name] = gltf::Part{file.content, file.content_type};
+      }
+      r = gltf::request_from_parts(parts, params);
+    }
+  } catch (const InputError& e) {
+    // A glTF or JSON error, or the validate stage's about the primitive (no JSON value to point at).
+    return problem_answer(input_problem(e, InputKind::none));
+  }
+  auto request = std::make_shared<const codec::ParametrizeRequest>(std::move(r->request));
+  if (auto a = check_mesh_limits(service.config, *request)) return *a;
+  return ParsedParametrize{request, std::make_shared<const gltf::Asset>(std::move(r->asset))};
+}
+
+}  // namespace
+
+std::optional<Answer> require_json(const httplib::Request& req) {
+  const std::string raw = req.get_header_value("Content-Type");
+  const std::string type = lower(trim(raw.substr(0, raw.find(';'))));
+  if (type == "application/json") return std::nullopt;
+  const std::string detail =
+      raw.empty() ? std::string("the request has no Content-Type; send the body as application/json")
+                  : "Content-Type " + json(raw).dump(-1, ' ', false, json::error_handler_t::replace) +
+                        " is not supported; send the body as application/json";
+  Answer a = problem_answer("unsupported_media_type", detail);
+  (*a.problem)["supported"] = {"application/json"};
+  a.headers.emplace_back("Accept-Post", "application/json");
+  return a;
+}
+
+std::variant<ParsedParametrize, Answer> parse_parametrize(Service& service, const httplib::Request& req) {
+  if (auto a = service.refuse_when_draining()) return *a;
+  const std::string raw_type = req.get_header_value("Content-Type");
+  const std::string media = lower(trim(raw_type.substr(0, raw_type.find(';'))));
+  const std::optional<gltf::Format> model_format = gltf::format_from_media_type(media);
+  if (model_format || media == "multipart/form-data") return parse_gltf_parametrize(service, req, nullptr, model_format);
+  if (auto a = require_json(req)) {
+    (*a->problem)["supported"] = {"application/json", "model/gltf-binary", "model/gltf+json", "multipart/form-data"};
+    for (auto& [k, v] : a->headers)
+      if (k == "Accept-Post") v = "application/json, model/gltf-binary, model/gltf+json, multipart/form-data";
+    return *a;
+  }
+  auto request = std::make_shared<codec::ParametrizeRequest>();
+  try {
+    const json body = codec::parse_json(req.body);
+    if (gltf::is_envelope(body)) return parse_gltf_parametrize(service, req, &body, std::nullopt);
+    *request = codec::parametrize_request_from_json(body);
+  } catch (const InputError& e) {
+    return problem_answer(input_problem(e, InputKind::parametrize));
+  }
+  if (auto a = check_mesh_limits(service.config, *request)) return *a;
+  return ParsedParametrize{std::move(request), nullptr};
+}
+
+MapOutcome run_map(const codec::ParametrizeRequest& request, const CancelToken& token, const ProgressFn& progress,
+                   Metrics& metrics) {
+  auto result = std::make_shared<ParametrizeResult>(
+      parametrize(request.mesh, request.boundary, to_engine_options(request.options), &token, progress));
+  const StageTimings& t = result->timings;
+  const std::pair<Stage, double> stages[] = {{Stage::validate, t.validate},   {Stage::classify, t.classify},
+                                             {Stage::target_mesh, t.target_mesh},
+                                             {Stage::intermediate_maps, t.intermediate_maps},
+                                             {Stage::compose, t.compose},     {Stage::refine, t.refine},
+                                             {Stage::verify, t.verify},       {Stage::quality, t.quality}};
+  for (const auto& [stage, ms] : stages) metrics.observe_stage(lipmap::to_string(stage), ms / 1000.0);
+  metrics.observe_inserted_vertices(static_cast<long long>(result->map.inserted.size()));
+  auto text = std::make_shared<const std::string>(codec::dump(codec::parametrize_result_to_json(*result)));
+  return {std::move(text), std::move(result)};
+}
+
+Answer gltf_answer(const std::shared_ptr<const gltf::Asset>& asset, const ParametrizeResult& result, gltf::Format f) {
+  Answer a;
+  a.content_type = gltf::media_type(f);
+  a.shared_body = std::make_shared<const std::string>(asset ? gltf::write_answer(*asset, result, f)
+                                                            : gltf::write_answer(result, f));
+  return a;
+}
+
+Answer post_parametrize(Service& service, const httplib::Request& req) {
+  const auto parse_start = Clock::now();
+  auto parsed = parse_parametrize(service, req);
+  this_request().parse_ms = ms_since(parse_start);
+  if (auto* a = std::get_if<Answer>(&parsed)) return std::move(*a);
+  ParsedParametrize p = std::get<ParsedParametrize>(std::move(parsed));
+  const TestHooks hooks = service.hooks_of(req);
+  const std::optional<gltf::Format> answer_format = gltf::accepted_format(req.get_header_value("Accept"));
+  Metrics& metrics = service.metrics;
+  return service.run_sync(InputKind::parametrize, [p, hooks, answer_format, &metrics](const CancelToken& token) {
+    apply_hooks(hooks, token);
+    MapOutcome m = run_map(*p.request, token, {}, metrics);
+    if (answer_format && m.result) return gltf_answer(p.asset, *m.result, *answer_format);
+    Answer a;
+    a.shared_body = std::move(m.json);
+    return a;
+  });
+}
+
+}  // namespace lipmap::server

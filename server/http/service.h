@@ -1,0 +1,83 @@
+// What every handler of the HTTP service shares: the configuration, the worker pool, the job store, the
+// metrics and the structured log; running work on the pool and waiting for it (synchronous endpoints);
+// refusing work while draining or when the queue is full. docs/architecture.md shows how the parts fit.
+#pragma once
+
+#include <atomic>
+#include <chrono>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <unordered_set>
+
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include "engine/cancel.h"
+#include "server/http/http_server.h"
+#include "server/http/job_store.h"
+#include "server/http/metrics.h"
+#include "server/http/problems.h"
+#include "server/http/worker_pool.h"
+
+namespace httplib {
+struct Request;
+}
+
+namespace lipmap::server {
+
+using Clock = std::chrono::steady_clock;
+
+double ms_since(Clock::time_point t);
+std::string iso8601(std::chrono::system_clock::time_point t);
+
+// Test hooks (only with --test-hooks): X-Lipmap-Test-Delay-Ms and X-Lipmap-Test-Fault (internal, bad_alloc,
+// exception) make a task slow or make it fail, for the tests of deadlines, queueing and error answers.
+struct TestHooks {
+  long long delay_ms = 0;
+  std::string fault;
+};
+// Runs inside the task, before its work.
+void apply_hooks(const TestHooks& hooks, const CancelToken& token);
+
+class Service {
+public:
+  Service(ServerConfig config, std::shared_ptr<spdlog::logger> logger);
+
+  const ServerConfig config;
+  const std::shared_ptr<spdlog::logger> log;
+  Metrics metrics;
+  WorkerPool pool;
+  JobStore store;
+  std::atomic<bool> draining{false};
+  const Clock::time_point started_at = Clock::now();
+
+  // One JSON log line. Lifecycle events (listening, signal, draining, stopped) are written at every log
+  // level but off: an operator, or a test that started the service on port 0, needs the listening line
+  // even at --log-level warn.
+  void event(spdlog::level::level_enum level, nlohmann::ordered_json fields, bool lifecycle = false) const;
+
+  // 503 shutting_down while draining.
+  std::optional<Answer> refuse_when_draining() const;
+  // The answer to a task the pool did not take.
+  Answer submit_refused(WorkerPool::Submit why);
+  // The request's deadline, counted from its arrival.
+  Clock::time_point deadline_from_arrival() const;
+  TestHooks hooks_of(const httplib::Request& req) const;
+
+  // Runs `work` on the pool and waits for its answer (synchronous endpoints); 504 when the deadline
+  // passes, 503 when the pool refuses it. `kind` says what an InputError escaping the work is about.
+  using Work = std::function<Answer(const CancelToken&)>;
+  Answer run_sync(InputKind kind, Work work);
+  // Cancels the work of every synchronous request in flight.
+  void cancel_sync_work(CancelReason reason);
+
+private:
+  struct SyncWork;
+  std::mutex sync_mutex_;
+  std::unordered_set<std::shared_ptr<SyncWork>> sync_work_;
+};
+
+}  // namespace lipmap::server
