@@ -122,9 +122,8 @@ std::optional<RequestForm> request_form(const RequestInput& input) {
 
 LoadedRequest load_request(const RequestInput& input) {
   const std::optional<RequestForm> form = request_form(input);
-  if (!form)
-    throw InputError("unsupported_media_type", "a parametrize request is application/json, model/gltf-binary, model/gltf+json "
-                                               "or multipart/form-data, not '" + input.media_type + "'");
+  if (!form)  // the caller refuses these first (HTTP: 415 with the supported types)
+    throw InternalError("request loader: no request form for the media type '" + input.media_type + "'");
   LoadedRequest out;
   switch (*form) {
     case RequestForm::parametrize_json:

@@ -62,9 +62,11 @@ struct LoadedRequest {
   std::optional<int> texcoord_set;   // boundary=texcoord:N
 };
 
-// The form of a request, or nullopt for a media type or extension the loader does not take.
+// The form of a request, or nullopt for a media type the loader does not take (a file always has a form:
+// an unknown extension is a mesh file that read_mesh_file refuses).
 std::optional<RequestForm> request_form(const RequestInput& input);
 
+// Precondition: request_form(input) has a value (the caller refuses other media types; else InternalError).
 LoadedRequest load_request(const RequestInput& input);
 
 }  // namespace lipmap::codec

@@ -231,7 +231,10 @@ TEST(RequestLoader, BadInputsGiveTheirDocumentedCodes) {
   fo.texcoord0 = &g.texcoord;
   const std::string glb = gltftest::make_gltf(g.vertices, g.faces, fo, true);
 
-  EXPECT_EQ(error_of([&] { http("{}", "text/plain"); }).first, "unsupported_media_type");
+  codec::RequestInput text;
+  text.media_type = "text/plain";
+  EXPECT_FALSE(codec::request_form(text));  // the caller's to refuse (HTTP: 415)
+  EXPECT_THROW(codec::load_request(text), InternalError);
   EXPECT_EQ(error_of([&] { http("{", "application/json"); }).first, "invalid_json");
   // A named file's JSON errors name the file, then the pointer.
   const std::string broken = dir.write("broken.json", "{\"mesh\": 3}");
