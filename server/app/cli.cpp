@@ -23,6 +23,7 @@
 #include "engine/classify.h"
 #include "engine/error.h"
 #include "engine/mesh_io.h"
+#include "server/codec/error_table.h"
 #include "server/codec/gltf_codec.h"
 #include "server/codec/json_codec.h"
 #include "server/codec/request_loader.h"
@@ -36,33 +37,22 @@ namespace {
 // The CMake project version (server/CMakeLists.txt passes PROJECT_VERSION).
 constexpr const char* kVersion = LIPMAP_VERSION;
 
-// One line, whatever the message holds: control characters (a newline in an engine message, say)
-// become spaces.
-void error_line(std::ostream& err, const std::string& code, const std::string& message) {
-  std::string line = "lipmap: error: " + code + ": " + message;
-  for (char& c : line)
-    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = ' ';
-  err << line << '\n';
-  err.flush();
-}
-
 // Called inside a catch (...) block: the one-line message and exit code of a failure that is not the
 // input's fault (InputError is handled where it is caught, with its own pointer).
 int report_failure(std::ostream& err, const char* task) {
   try {
     throw;
   } catch (const InternalError& e) {
-    error_line(err, "internal_error", e.what());
+    return fail(err, "internal_error", e.what());
   } catch (const Cancelled& e) {
-    error_line(err, "cancelled", e.what());
+    return fail(err, "cancelled", e.what());
   } catch (const std::bad_alloc&) {
-    error_line(err, "out_of_memory", std::string("not enough memory to ") + task);
+    return fail(err, "out_of_memory", std::string("not enough memory to ") + task);
   } catch (const std::exception& e) {
-    error_line(err, "internal_error", e.what());
+    return fail(err, "internal_error", e.what());
   } catch (...) {
-    error_line(err, "internal_error", "unexpected exception");
+    return fail(err, "internal_error", "unexpected exception");
   }
-  return kExitInternalError;
 }
 
 // A file that cannot be read is the caller's fault; reported like any other input error.
@@ -94,6 +84,15 @@ std::string where(const std::optional<std::string>& pointer) {
 
 }  // namespace
 
+int fail(std::ostream& err, const std::string& code, const std::string& message) {
+  std::string line = "lipmap: error: " + code + ": " + message;
+  for (char& c : line)
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f) c = ' ';
+  err << line << '\n';
+  err.flush();
+  return codec::error_info(code).exit_code;
+}
+
 int classify_command(const std::string& file, bool pretty, std::istream& in, std::ostream& out, std::ostream& err) {
   try {
     const std::string text = read_all(file, in);
@@ -103,16 +102,13 @@ int classify_command(const std::string& file, bool pretty, std::istream& in, std
     out << codec::dump(codec::classification_to_json(answer), pretty) << '\n';
     out.flush();
     if (!out) {
-      error_line(err, "output_failed", "cannot write the answer to standard output");
-      return kExitInputError;
+      return fail(err, "output_failed", "cannot write the answer to standard output");
     }
     return kExitOk;
   } catch (const ReadError& e) {
-    error_line(err, "file_unreadable", e.what());
-    return kExitInputError;
+    return fail(err, "file_unreadable", e.what());
   } catch (const InputError& e) {  // JsonError from the codec, or the engine's own validation
-    error_line(err, e.code(), where(codec::classify_error_pointer(e)) + e.what());
-    return kExitInputError;
+    return fail(err, e.code(), where(codec::classify_error_pointer(e)) + e.what());
   } catch (...) {
     return report_failure(err, "classify this polygon");
   }
@@ -142,24 +138,21 @@ std::string map_error_location(const InputError& e, bool boundary_from_file, con
   return {};  // a mesh file: the engine's message names the vertex, face or edge
 }
 
-class MapFailure : public std::runtime_error {  // an error line already decided: code, message, exit code
+class MapFailure : public std::runtime_error {  // an error line already decided: its code and message
 public:
-  MapFailure(std::string code, const std::string& message, int exit_code)
-      : std::runtime_error(message), code_(std::move(code)), exit_code_(exit_code) {}
+  MapFailure(std::string code, const std::string& message) : std::runtime_error(message), code_(std::move(code)) {}
   const std::string& code() const { return code_; }
-  int exit_code() const { return exit_code_; }
 
 private:
   std::string code_;
-  int exit_code_;
 };
 
 void write_text_file(const std::string& path, const std::string& text) {
   std::ofstream file(path, std::ios::binary | std::ios::trunc);
-  if (!file) throw MapFailure("output_file_unwritable", "cannot create '" + path + "': " + std::strerror(errno), kExitInputError);
+  if (!file) throw MapFailure("output_file_unwritable", "cannot create '" + path + "': " + std::strerror(errno));
   file << text;
   file.flush();
-  if (!file) throw MapFailure("output_file_unwritable", "cannot write '" + path + "'", kExitInputError);
+  if (!file) throw MapFailure("output_file_unwritable", "cannot write '" + path + "'");
 }
 
 std::string fmt_ms(double ms) {
@@ -178,19 +171,17 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
   // Usage problems first, before any work.
   const std::string out_ext = lower_extension(args.output_file);
   if (out_ext != "obj" && out_ext != "json" && out_ext != "glb" && out_ext != "gltf") {
-    error_line(err, "usage", "-o must name a .obj, .json, .glb or .gltf file, got '" + args.output_file + "' (run 'lipmap map --help')");
-    return kExitUsageError;
+    return fail(err, "usage", "-o must name a .obj, .json, .glb or .gltf file, got '" + args.output_file + "' (run 'lipmap map --help')");
   }
   if (!mesh_from_json && !boundary_from_file) {
-    error_line(err, "usage", "--boundary BOUNDARY.json is required unless MESH is a .json parametrize request "
+    return fail(err, "usage", "--boundary BOUNDARY.json is required unless MESH is a .json parametrize request "
                              "(run 'lipmap map --help')");
-    return kExitUsageError;
   }
   try {
     // ---- inputs (server/codec/request_loader.h) ----
     // --boundary texcoord:N pins the boundary to the glTF primitive's TEXCOORD_N: a usage error without glTF.
     if (boundary_from_file && gltf::parse_texcoord_spec(args.boundary_file) && !gltf::format_from_path(args.mesh_file))
-      throw MapFailure("usage", "--boundary texcoord:N needs a .glb or .gltf MESH", kExitUsageError);
+      throw MapFailure("usage", "--boundary texcoord:N needs a .glb or .gltf MESH");
     codec::RequestInput input;
     input.file = args.mesh_file;
     input.read_file = [](const std::string& file) { return read_all(file, std::cin); };
@@ -240,15 +231,13 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
       const Classification& c = e.classification();
       throw MapFailure(e.code(),
                        std::string(e.what()) + " (verdict: " + codec::verdict_name(c.verdict) + ", turning number " +
-                           std::to_string(c.turning_number) + ")",
-                       kExitInputError);
+                           std::to_string(c.turning_number) + ")");
     } catch (const codec::JsonError&) {
       throw;
     } catch (const InputError& e) {
       throw MapFailure(e.code(),
                        map_error_location(e, boundary_from_file, args.boundary_file, mesh_from_json, args.mesh_file) +
-                           e.what(),
-                       kExitInputError);
+                           e.what());
     }
 
     // ---- outputs ----
@@ -278,14 +267,11 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
     }
     return kExitOk;
   } catch (const MapFailure& e) {
-    error_line(err, e.code(), e.what());
-    return e.exit_code();
+    return fail(err, e.code(), e.what());
   } catch (const ReadError& e) {
-    error_line(err, "file_unreadable", e.what());
-    return kExitInputError;
+    return fail(err, "file_unreadable", e.what());
   } catch (const InputError& e) {  // read_mesh_file, write_obj
-    error_line(err, e.code(), e.what());
-    return kExitInputError;
+    return fail(err, e.code(), e.what());
   } catch (...) {
     return report_failure(err, "map this mesh");
   }
@@ -365,24 +351,19 @@ int run(int argc, const char* const* argv, std::istream& in, std::ostream& out, 
       const std::string first = argc > 1 ? argv[1] : "";
       if (!first.empty() && first[0] != '-' && first != "classify" && first != "map" && first != "serve")
         message = "unknown subcommand '" + std::string(argv[1]) + "' (expected classify, map or serve)";
-      error_line(err, "usage", message + " (run 'lipmap --help')");
-      return kExitUsageError;
+      return fail(err, "usage", message + " (run 'lipmap --help')");
     }
 
     if (classify_cmd->parsed()) return classify_command(classify_file, pretty, in, out, err);
     if (map_cmd->parsed()) return map_command(map_args, out, err);
     if (serve_cmd->parsed()) return serve_command(serve_options, out, err);
-    error_line(err, "usage", "no subcommand given (run 'lipmap --help')");
-    return kExitUsageError;
+    return fail(err, "usage", "no subcommand given (run 'lipmap --help')");
   } catch (const std::bad_alloc&) {
-    error_line(err, "out_of_memory", "not enough memory");
-    return kExitInternalError;
+    return fail(err, "out_of_memory", "not enough memory");
   } catch (const std::exception& e) {
-    error_line(err, "internal_error", e.what());
-    return kExitInternalError;
+    return fail(err, "internal_error", e.what());
   } catch (...) {
-    error_line(err, "internal_error", "unexpected exception");
-    return kExitInternalError;
+    return fail(err, "internal_error", "unexpected exception");
   }
 }
 

@@ -5,15 +5,17 @@
 #include <iosfwd>
 #include <string>
 
+#include "server/codec/error_table.h"
+
 namespace lipmap::cli {
 
-// Exit codes. Every classify verdict is an answer (0); only failures are non-zero.
-enum ExitCode : int {
-  kExitOk = 0,
-  kExitInputError = 1,     // unreadable file, malformed JSON, wrong shape, InputError from the engine
-  kExitUsageError = 2,     // bad command line
-  kExitInternalError = 3,  // a bug or resource exhaustion: InternalError, bad_alloc, anything unexpected
-};
+// Exit codes: 0 for every answer (every classify verdict included); a failure's code comes from the one error
+// table (server/codec/error_table.h): 1 the caller's input or files, 2 usage, 3 internal.
+using codec::kExitOk;
+
+// Reports a failure: exactly one line "lipmap: error: <code>: <message>" on `err` (control characters in the
+// message become spaces), and returns the exit code the error table gives <code>.
+int fail(std::ostream& err, const std::string& code, const std::string& message);
 
 // Parses argv and runs the subcommand. Never throws. Answers go to `out`; every failure is exactly one
 // line on `err`: "lipmap: error: <code>: <message>".

@@ -9,6 +9,6 @@ int main(int argc, char** argv) {
     return lipmap::cli::run(argc, argv, std::cin, std::cout, std::cerr);
   } catch (...) {  // cli::run never throws; this is the last line of defence, not a code path
     std::fputs("lipmap: error: internal_error: unexpected exception\n", stderr);
-    return lipmap::cli::kExitInternalError;
+    return lipmap::codec::kExitInternalError;
   }
 }

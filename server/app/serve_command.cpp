@@ -74,26 +74,13 @@ CLI::App* add_serve_subcommand(CLI::App& app, ServeOptions& o) {
   return cmd;
 }
 
-namespace {
-
-void error_line(std::ostream& err, const std::string& code, const std::string& message) {
-  std::string line = "lipmap: error: " + code + ": " + message;
-  for (char& ch : line)
-    if (static_cast<unsigned char>(ch) < 0x20 || ch == 0x7f) ch = ' ';
-  err << line << '\n';
-  err.flush();
-}
-
-}  // namespace
-
 int serve_command(const ServeOptions& options, std::ostream& out, std::ostream& err) {
   (void)out;
   server::ServerConfig config;
   try {
     config = server::resolve(options.config);
   } catch (const std::invalid_argument& e) {
-    error_line(err, "usage", std::string(e.what()) + " (run 'lipmap serve --help')");
-    return kExitUsageError;
+    return fail(err, "usage", std::string(e.what()) + " (run 'lipmap serve --help')");
   }
 
   // Signals are taken by sigwait below, never by a handler: block them before any thread starts so that
@@ -117,8 +104,7 @@ int serve_command(const ServeOptions& options, std::ostream& out, std::ostream& 
     server->bind();
     server->start();
   } catch (const std::runtime_error& e) {
-    error_line(err, "listen_failed", e.what());
-    return kExitInputError;
+    return fail(err, "listen_failed", e.what());
   }
 
   int signal_number = 0;

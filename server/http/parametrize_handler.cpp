@@ -4,6 +4,7 @@
 #include <optional>
 #include <string>
 
+#include "server/codec/request_loader.h"
 #include "server/http/handlers.h"
 #include "server/http/middleware.h"
 
@@ -28,14 +29,6 @@ std::string trim(const std::string& s) {
   return s.substr(b, e - b + 1);
 }
 
-lipmap::ParametrizeOptions to_engine_options(const codec::ParametrizeOptions& o) {
-  lipmap::ParametrizeOptions out;
-  out.method = o.method == codec::MapMethod::tutte ? lipmap::MapMethod::tutte : lipmap::MapMethod::harmonic;
-  out.refine = o.refine;
-  out.target_density = o.target_density;
-  return out;
-}
-
 std::optional<Answer> check_mesh_limits(const ServerConfig& config, const codec::ParametrizeRequest& r) {
   if (r.mesh.vertices.size() > config.max_vertices)
     return problem_answer("mesh_too_large",
@@ -53,44 +46,6 @@ std::optional<Answer> check_mesh_limits(const ServerConfig& config, const codec:
                               " positions; this service takes at most " + std::to_string(config.max_polygon_vertices),
                           std::string("/boundary/positions"));
   return std::nullopt;
-}
-
-// A glTF parametrize request (server/codec/gltf_codec.h: model/gltf-binary, model/gltf+json,
-// multipart/form-data, or a JSON envelope with gltf_base64); query parameters mesh, primitive, weld,
-// boundary (texcoord:N).
-std::variant<ParsedParametrize, Answer> parse_gltf_parametrize(const Service& service, const httplib::Request& req,
-                                                               const json* envelope,
-                                                               std::optional<gltf::Format> model_format) {
-  gltf::Params params;
-  auto param = [&](const char* name) -> std::optional<std::string> {
-    if (!req.has_param(name)) return std::nullopt;
-    return req.get_param_value(name);
-  };
-  params.mesh = param("mesh");
-  params.primitive = param("primitive");
-  params.weld = param("weld");
-  params.boundary = param("boundary");
-  std::optional<gltf::Request> r;
-  try {
-    if (envelope) {
-      r = gltf::request_from_envelope(*envelope, params);
-    } else if (model_format) {
-      r = gltf::request_from_model(req.body, *model_format, params);
-    } else {
-      std::map<std::string, gltf::Part> parts;
-      for (const auto& [name, file] : req.files) {
-        if (parts.count(name)) throw gltf::GltfError("gltf_invalid_request", "multipart part \"" + name + "\" is given twice");
-        parts[name] = gltf::Part{file.content, file.content_type};
-      }
-      r = gltf::request_from_parts(parts, params);
-    }
-  } catch (const InputError& e) {
-    // A glTF or JSON error, or the validate stage's about the primitive (no JSON value to point at).
-    return problem_answer(input_problem(e, InputKind::none));
-  }
-  auto request = std::make_shared<const codec::ParametrizeRequest>(std::move(r->request));
-  if (auto a = check_mesh_limits(service.config, *request)) return *a;
-  return ParsedParametrize{request, std::make_shared<const gltf::Asset>(std::move(r->asset))};
 }
 
 }  // namespace
@@ -111,32 +66,49 @@ std::optional<Answer> require_json(const httplib::Request& req) {
 
 std::variant<ParsedParametrize, Answer> parse_parametrize(Service& service, const httplib::Request& req) {
   if (auto a = service.refuse_when_draining()) return *a;
-  const std::string raw_type = req.get_header_value("Content-Type");
-  const std::string media = lower(trim(raw_type.substr(0, raw_type.find(';'))));
-  const std::optional<gltf::Format> model_format = gltf::format_from_media_type(media);
-  if (model_format || media == "multipart/form-data") return parse_gltf_parametrize(service, req, nullptr, model_format);
-  if (auto a = require_json(req)) {
-    (*a->problem)["supported"] = {"application/json", "model/gltf-binary", "model/gltf+json", "multipart/form-data"};
-    for (auto& [k, v] : a->headers)
+  // The request loader (server/codec/request_loader.h) is shared with `lipmap map`: a parametrize JSON body, a
+  // glTF envelope, a glTF model (query parameters mesh, primitive, weld, boundary=texcoord:N) or multipart.
+  codec::RequestInput input;
+  input.body = req.body;
+  input.media_type = req.get_header_value("Content-Type");
+  if (!codec::request_form(input)) {
+    Answer a = *require_json(req);
+    (*a.problem)["supported"] = {"application/json", "model/gltf-binary", "model/gltf+json", "multipart/form-data"};
+    for (auto& [k, v] : a.headers)
       if (k == "Accept-Post") v = "application/json, model/gltf-binary, model/gltf+json, multipart/form-data";
-    return *a;
+    return a;
   }
-  auto request = std::make_shared<codec::ParametrizeRequest>();
+  auto param = [&](const char* name) -> std::optional<std::string> {
+    if (!req.has_param(name)) return std::nullopt;
+    return req.get_param_value(name);
+  };
+  input.gltf_params.mesh = param("mesh");
+  input.gltf_params.primitive = param("primitive");
+  input.gltf_params.weld = param("weld");
+  input.gltf_params.boundary = param("boundary");
+  std::optional<codec::LoadedRequest> loaded;
   try {
-    const json body = codec::parse_json(req.body);
-    if (gltf::is_envelope(body)) return parse_gltf_parametrize(service, req, &body, std::nullopt);
-    *request = codec::parametrize_request_from_json(body);
+    for (const auto& [name, file] : req.files) {
+      if (input.parts.count(name)) throw gltf::GltfError("gltf_invalid_request", "multipart part \"" + name + "\" is given twice");
+      input.parts[name] = gltf::Part{file.content, file.content_type};
+    }
+    loaded = codec::load_request(input);
   } catch (const InputError& e) {
-    return problem_answer(input_problem(e, InputKind::parametrize));
+    // Parsing throws the codecs' errors (they carry their own pointers) or the validate stage's about a glTF
+    // primitive, which has no JSON value to point at.
+    return problem_answer(input_problem(e, InputKind::none));
   }
+  auto request = std::make_shared<const codec::ParametrizeRequest>(std::move(loaded->request));
   if (auto a = check_mesh_limits(service.config, *request)) return *a;
-  return ParsedParametrize{std::move(request), nullptr};
+  std::shared_ptr<const gltf::Asset> asset;
+  if (loaded->asset) asset = std::make_shared<const gltf::Asset>(std::move(*loaded->asset));
+  return ParsedParametrize{std::move(request), std::move(asset)};
 }
 
 MapOutcome run_map(const codec::ParametrizeRequest& request, const CancelToken& token, const ProgressFn& progress,
                    Metrics& metrics) {
   auto result = std::make_shared<ParametrizeResult>(
-      parametrize(request.mesh, request.boundary, to_engine_options(request.options), &token, progress));
+      parametrize(request.mesh, request.boundary, request.options, &token, progress));
   const StageTimings& t = result->timings;
   const std::pair<Stage, double> stages[] = {{Stage::validate, t.validate},   {Stage::classify, t.classify},
                                              {Stage::target_mesh, t.target_mesh},

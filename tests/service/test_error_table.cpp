@@ -114,8 +114,6 @@ TEST(ErrorTable, EveryCodeOfTheServiceAndTheCommandLineHasAnEntry) {
     const std::set<std::string> codes = all_of(emitted_codes(folder));
     ASSERT_GE(codes.size(), 4u) << folder;
     for (const std::string& code : codes) {
-      // The command line's not_implemented belongs to a function nothing calls any more.
-      if (code == "not_implemented") continue;
       EXPECT_TRUE(has_error_info(code)) << folder << " code without an entry: " << code;
     }
   }
