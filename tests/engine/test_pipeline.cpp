@@ -619,31 +619,33 @@ TEST(MapPipeline, NonSelfOverlappingBoundariesAreRefused) {
   EXPECT_THROW(parametrize(raw_of(m), b, {}), NotSelfOverlapping);
 }
 
-// Paper Fig. 13, identity reproduction. A planar mesh mapped onto its own boundary: the smooth dual
-// harmonic map is exactly the identity, the discrete one is not, because h_s is computed on the source's
-// triangulation and h_t on the target mesh (a CGAL quality mesh of the same polygon with other vertices):
-// two discretizations of the same harmonic map. Their difference is a discretization error of the order of
-// the mesh size near the boundary's sharp features. Tolerances (relative to the bounding-box diagonal):
-// mean displacement < 0.1 %, max < 1 % (measured: woody 0.023 % / 0.22 %, alligator 0.004 % / 0.16 %; the
-// margin covers other target-mesh densities and solver round-off, not a different algorithm). Tutte weights
-// are not a discretization of anything smooth that is triangulation-independent, so the two Tutte maps
-// disagree much more (measured: mean 0.48 % and 0.16 %): its mean displacement must be at least twice and
-// its maximum larger than the harmonic one.
+// Paper Fig. 13, identity reproduction, on every planar mesh of the catalog. A planar mesh mapped onto its
+// own boundary: the smooth dual harmonic map is exactly the identity, the discrete one is not, because h_s
+// is computed on the source's triangulation and h_t on the target mesh (a CGAL quality mesh of the same
+// polygon with other vertices): two discretizations of the same harmonic map. Their difference is a
+// discretization error of the order of the mesh size near the boundary's sharp features, so it is measured
+// in units of the source's mean boundary edge length h. Tolerances: mean displacement < 0.1 h, max < h
+// (measured, mean / max: swirl_blob 0.043 h / 0.35 h, swirl_domain 0.029 h / 0.22 h, maze_corridor
+// 0.011 h / 0.17 h, wiggly_strip 0.0032 h / 0.036 h; the margin covers other target-mesh densities and
+// solver round-off, not a different algorithm). Tutte weights are not a discretization of anything smooth
+// that is triangulation-independent, so the two Tutte maps disagree much more (measured mean: 1.08 h,
+// 2.6 h, 0.085 h, 0.27 h): its mean displacement must be at least twice and its maximum larger than the
+// harmonic one.
 struct Displacement {
   double max = 0, mean = 0;
 };
 
 Displacement displacement(const TestMesh& m, const ParametrizeResult& r, bool mirrored) {
-  double lo_x = 1e300, hi_x = -1e300, lo_y = 1e300, hi_y = -1e300;
-  for (const Point3& p : m.vertices) {
-    lo_x = std::min(lo_x, p.x), hi_x = std::max(hi_x, p.x);
-    lo_y = std::min(lo_y, p.y), hi_y = std::max(hi_y, p.y);
+  double h = 0;
+  for (std::size_t k = 0; k < m.loop.size(); ++k) {
+    const Point3 &a = m.vertices[m.loop[k]], &b = m.vertices[m.loop[(k + 1) % m.loop.size()]];
+    h += std::hypot(b.x - a.x, b.y - a.y);
   }
-  const double diag = std::hypot(hi_x - lo_x, hi_y - lo_y);
+  h /= double(m.loop.size());
   Displacement d;
   for (std::size_t v = 0; v < m.vertices.size(); ++v) {
     const double ex = m.vertices[v].x, ey = mirrored ? -m.vertices[v].y : m.vertices[v].y;
-    const double e = std::hypot(r.map.uv[v].x - ex, r.map.uv[v].y - ey) / diag;
+    const double e = std::hypot(r.map.uv[v].x - ex, r.map.uv[v].y - ey) / h;
     d.max = std::max(d.max, e);
     d.mean += e;
   }
@@ -652,8 +654,10 @@ Displacement displacement(const TestMesh& m, const ParametrizeResult& r, bool mi
 }
 
 TEST(MapPipeline, IdentityReproductionOfPlanarMeshes) {
+  int planar = 0;
   for (const testmeshes::MeshEntry& e : testmeshes::catalog()) {
     if (!e.planar) continue;
+    ++planar;
     const std::string file = e.file;
     const TestMesh& m = mesh(e);
     // Positions: the boundary where it is. If the faces are clockwise in the plane the boundary would be a
@@ -674,13 +678,14 @@ TEST(MapPipeline, IdentityReproductionOfPlanarMeshes) {
     const Displacement dh = displacement(m, harmonic, mirrored), dt = displacement(m, tutte, mirrored);
     RecordProperty(std::string(file) + "_harmonic_mean", std::to_string(dh.mean));
     RecordProperty(std::string(file) + "_tutte_mean", std::to_string(dt.mean));
-    std::printf("[ identity ] %s: harmonic max %.4g mean %.4g, tutte max %.4g mean %.4g (of the bbox diagonal)\n", file.c_str(),
+    std::printf("[ identity ] %s: harmonic max %.4g mean %.4g, tutte max %.4g mean %.4g (of h)\n", file.c_str(),
                 dh.max, dh.mean, dt.max, dt.mean);
-    EXPECT_LT(dh.mean, 0.001) << file;
-    EXPECT_LT(dh.max, 0.01) << file;
+    EXPECT_LT(dh.mean, 0.1) << file;
+    EXPECT_LT(dh.max, 1.0) << file;
     EXPECT_GT(dt.mean, 2 * dh.mean) << file << ": tutte is not farther from the identity than harmonic";
     EXPECT_GT(dt.max, dh.max) << file;
   }
+  EXPECT_GE(planar, 4);
 }
 
 TEST(MapPipeline, RefineOffReturnsTheVertexWiseMapWithItsFlipsCounted) {
