@@ -17,6 +17,7 @@
 #include "engine/intermediate_map.h"
 #include "engine/mesh_io.h"
 #include "engine/validate.h"
+#include "tests/support/test_meshes.h"
 
 namespace {
 
@@ -64,15 +65,14 @@ int main(int argc, char** argv) {
   std::printf("%-30s %7s %7s %5s | %-8s %8s %8s %8s %8s %8s %6s %5s\n", "mesh", "V", "F", "nb", "method", "assemble",
               "factor", "solve", "check", "total", "flips0", "sol");
 
-  const char* const meshes[] = {"nefertiti.off",   "blob.off",         "three_peaks.off", "woody.obj",
-                                "alligator.obj",   "bump-domain.obj",  "maze.obj",        "camel_b.obj",
-                                "camel-head.off",  "mannequin-devil.off", "keenan-ogre.obj", "mountain.obj",
-                                "face.obj",        "max-registration-partial.obj"};
   int failures = 0;
-  for (const char* name : meshes) {
+  // Every disk mesh of the tests' catalog (tests/support/test_meshes.h), with $LIPMAP_EXTRA_MESHES.
+  for (const lipmap::testmeshes::MeshEntry& entry : lipmap::testmeshes::disk_meshes()) {
+    const std::string file = entry.extra ? entry.file : data + "/meshes/" + entry.file;
+    const char* name = entry.file.c_str();
     lipmap::DiskMesh disk;
     try {
-      disk = lipmap::validate_mesh(lipmap::read_mesh_file(data + "/meshes/" + name));
+      disk = lipmap::validate_mesh(lipmap::read_mesh_file(file));
     } catch (const std::exception& e) {
       std::printf("%-30s skipped: %s\n", name, e.what());
       continue;

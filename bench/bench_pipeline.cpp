@@ -50,18 +50,8 @@
 #include "engine/cancel.h"
 #include "engine/error.h"
 #include "engine/mesh_io.h"
-
-#if defined(__has_include)
-#if __has_include("engine/pipeline.cpp")
-#define LIPMAP_BENCH_HAVE_PIPELINE 1
-#endif
-#endif
-#ifndef LIPMAP_BENCH_HAVE_PIPELINE
-#define LIPMAP_BENCH_HAVE_PIPELINE 0
-#endif
-#if LIPMAP_BENCH_HAVE_PIPELINE
 #include "engine/pipeline.h"
-#endif
+#include "tests/support/test_meshes.h"
 
 namespace {
 
@@ -109,10 +99,10 @@ std::vector<int> boundary_loop(const std::vector<Triangle>& faces, std::size_t n
   return loop;
 }
 
-Mesh load(const std::string& dir, const std::string& file) {
-  const lipmap::RawMesh raw = lipmap::read_mesh_file(dir + "/meshes/" + file);
+Mesh load(const std::string& dir, const lipmap::testmeshes::MeshEntry& entry) {
+  const lipmap::RawMesh raw = lipmap::read_mesh_file(entry.extra ? entry.file : dir + "/meshes/" + entry.file);
   Mesh m;
-  m.name = file.substr(0, file.find('.'));
+  m.name = entry.name();
   m.vertices = raw.vertices;
   for (const auto& f : raw.faces) m.faces.push_back({int(f[0]), int(f[1]), int(f[2])});
   m.loop = boundary_loop(m.faces, m.vertices.size());
@@ -167,7 +157,6 @@ Row run_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs, double 
   row.vertices = static_cast<long long>(m.vertices.size());
   row.triangles = static_cast<long long>(m.faces.size());
   row.boundary = static_cast<long long>(m.loop.size());
-#if LIPMAP_BENCH_HAVE_PIPELINE
   lipmap::RawMesh raw;
   raw.vertices = m.vertices;
   for (const Triangle& f : m.faces) raw.faces.push_back({f[0], f[1], f[2]});
@@ -208,12 +197,6 @@ Row run_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs, double 
   row.compose_refine = median(cr);
   row.total = median(total);
   row.other = median(other);
-#else
-  (void)t;
-  (void)runs;
-  (void)budget_s;
-  row.error = "engine/pipeline.cpp is not built yet";
-#endif
   struct rusage ru {};
   getrusage(RUSAGE_SELF, &ru);
   row.rss_kb = ru.ru_maxrss;
@@ -345,10 +328,6 @@ int main(int argc, char** argv) {
       return 0;
     }
   }
-  const std::vector<std::string> files = {"blob.off",        "nefertiti.off",  "woody.obj",       "three_peaks.off",
-                                          "camel_b.obj",     "alligator.obj",  "bump-domain.obj", "maze.obj",
-                                          "camel-head.off",  "mannequin-devil.off", "keenan-ogre.obj", "mountain.obj",
-                                          "face.obj",        "max-registration-partial.obj"};
 
   struct utsname u {};
   uname(&u);
@@ -358,20 +337,18 @@ int main(int argc, char** argv) {
               std::thread::hardware_concurrency(), cpu_model().c_str());
   std::printf("median of %d run%s per row (budget %.0f s per row); times in ms; peak = max resident set of the row's "
               "own process\n", runs, runs == 1 ? "" : "s", budget_s);
-#if !LIPMAP_BENCH_HAVE_PIPELINE
-  std::printf("NOTE: engine/pipeline.cpp is not built yet: lipmap columns are empty\n");
-#endif
   std::printf("\n%-26s %-11s %-24s %7s %7s %6s %5s %9s %9s %9s %9s %8s %8s %9s %7s\n", "model", "target", "verdict",
               "#vert", "#tri", "#bnd", "#ins", "triang.", "2 maps", "comp+ref", "total", "other", "peak MB",
               "CGAL Tut", "ratio");
   std::printf("%s\n", std::string(180, '-').c_str());
 
-  for (const std::string& file : files) {
-    const std::string name = file.substr(0, file.find('.'));
+  // Every disk mesh of the tests' catalog (tests/support/test_meshes.h), with $LIPMAP_EXTRA_MESHES.
+  for (const lipmap::testmeshes::MeshEntry& entry : lipmap::testmeshes::disk_meshes()) {
+    const std::string name = entry.name();
     if (!only.empty() && std::find(only.begin(), only.end(), name) == only.end()) continue;
     Mesh m;
     try {
-      m = load(data, file);
+      m = load(data, entry);
     } catch (const std::exception& e) {
       std::printf("%-26s cannot read: %s\n", name.c_str(), e.what());
       continue;

@@ -21,13 +21,13 @@ setup_file() {
   [ -x "$LIPMAP" ] || { echo "lipmap binary not found at $LIPMAP" >&2; return 1; }
   [ -d "$ROOT/node_modules/gltf-validator" ] || { echo "npm ci first (gltf-validator)" >&2; return 1; }
   local m
-  for m in nefertiti.off woody.obj three_peaks.off blob.off; do
+  for m in nefertiti.off swirl_blob.obj three_peaks.off blob.off; do
     node "$TOOLS/gltf_fixture.js" model "$MESHES/$m" "$FIX/${m%.*}.glb"
     node "$TOOLS/gltf_fixture.js" model "$MESHES/$m" "$FIX/${m%.*}.gltf"
     node "$TOOLS/gltf_fixture.js" target "$MESHES/$m" circle "$FIX/${m%.*}_circle.json"
   done
   node "$TOOLS/gltf_fixture.js" target "$MESHES/nefertiti.off" exp "$FIX/nefertiti_exp.json" 2>/dev/null
-  node "$TOOLS/gltf_fixture.js" target "$MESHES/woody.obj" exp "$FIX/woody_exp.json" 2>/dev/null
+  node "$TOOLS/gltf_fixture.js" target "$MESHES/swirl_blob.obj" exp "$FIX/swirl_blob_exp.json" 2>/dev/null
 }
 
 lipmap() { run --separate-stderr "$LIPMAP" "$@"; }
@@ -58,9 +58,9 @@ map_and_check() {
   map_and_check nefertiti exp gltf gltf
 }
 
-@test "glb in, gltf out and gltf in, glb out: woody onto a self-overlapping exp target" {
-  map_and_check woody exp glb gltf
-  map_and_check woody exp gltf glb
+@test "glb in, gltf out and gltf in, glb out: swirl_blob onto a self-overlapping exp target" {
+  map_and_check swirl_blob exp glb gltf
+  map_and_check swirl_blob exp gltf glb
 }
 
 @test "three_peaks and blob onto a circle, with --method tutte" {
@@ -84,7 +84,7 @@ map_and_check() {
 @test "--boundary texcoord:N keeps the chart's outline exactly" {
   # A first map writes TEXCOORD_0; mapping that output again with texcoord:0 keeps its boundary bit for bit.
   local first="$BATS_TEST_TMPDIR/first.glb" second="$BATS_TEST_TMPDIR/second.glb"
-  lipmap map "$FIX/woody.glb" --boundary "$FIX/woody_exp.json" -o "$first"
+  lipmap map "$FIX/swirl_blob.glb" --boundary "$FIX/swirl_blob_exp.json" -o "$first"
   [ "$status" -eq 0 ]
   lipmap map "$first" --boundary texcoord:0 -o "$second" --method tutte
   [ "$status" -eq 0 ] || { echo "$stderr" >&2; return 1; }
@@ -128,7 +128,7 @@ map_and_check() {
   [ "$status" -eq 0 ]
   node "$TOOLS/gltf_validate.js" "$out"
   local gltf_out="$BATS_TEST_TMPDIR/fresh.gltf"
-  lipmap map "$MESHES/woody.obj" --boundary "$FIX/woody_exp.json" -o "$gltf_out"
+  lipmap map "$MESHES/swirl_blob.obj" --boundary "$FIX/swirl_blob_exp.json" -o "$gltf_out"
   [ "$status" -eq 0 ]
   node "$TOOLS/gltf_validate.js" "$gltf_out"
 }

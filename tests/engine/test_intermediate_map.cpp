@@ -20,7 +20,7 @@
 
 #include <gtest/gtest.h>
 
-#include "tests/support/data_dir.h"
+#include "tests/support/test_meshes.h"
 
 #include <CGAL/Gmpq.h>
 
@@ -289,18 +289,13 @@ DiskMap map(const Mesh& m, MapMethod method) {
 
 std::string label(const std::string& name, MapMethod method) { return name + "/" + to_string(method); }
 
-// ---- the shared meshes ---------------------------------------------------------------------------------
+// ---- the test meshes -----------------------------------------------------------------------------------
 
-Mesh load_shared(const std::string& name) {
-  const DiskMesh disk = validate_mesh(read_mesh_file(data_dir() + "/meshes/" + name));
+Mesh load_shared(const testmeshes::MeshEntry& entry) {
+  const DiskMesh disk = validate_mesh(read_mesh_file(entry.path()));
   return Mesh{disk.vertices, disk.faces, disk.boundary_loop};
 }
 
-// Every valid disk mesh of data/meshes (README.md there); withZeroAreaTri_48.obj is refused by validate.
-const char* const kSharedDiskMeshes[] = {
-    "nefertiti.off",   "blob.off",     "three_peaks.off", "woody.obj",           "alligator.obj",
-    "bump-domain.obj", "maze.obj",     "camel_b.obj",     "camel-head.off",      "mannequin-devil.off",
-    "keenan-ogre.obj", "mountain.obj", "face.obj",        "max-registration-partial.obj"};
 
 // ---- tests ---------------------------------------------------------------------------------------------
 
@@ -414,26 +409,23 @@ INSTANTIATE_TEST_SUITE_P(IntermediateMap, IntermediateMapGrids,
                          ::testing::Values(MapMethod::tutte, MapMethod::harmonic),
                          [](const auto& info) { return std::string(to_string(info.param)); });
 
-class IntermediateMapShared : public ::testing::TestWithParam<const char*> {};
+// Every disk mesh of the catalog (tests/support/test_meshes.h), extra meshes included.
+class IntermediateMapShared : public ::testing::TestWithParam<testmeshes::MeshEntry> {};
 
 TEST_P(IntermediateMapShared, BothMethodsMapBijectively) {
   const Mesh m = load_shared(GetParam());
+  const std::string name = GetParam().name();
   ASSERT_GE(m.loop.size(), 3u);
   for (MapMethod method : {MapMethod::tutte, MapMethod::harmonic}) {
     const DiskMap d = map(m, method);
-    expect_bijective_disk_map(m, d, label(GetParam(), method));
+    expect_bijective_disk_map(m, d, label(name, method));
     EXPECT_EQ(d.interior_vertices, static_cast<int>(m.v.size() - m.loop.size()));
-    if (method == MapMethod::tutte) EXPECT_EQ(d.flipped_after_solve, 0) << GetParam();
+    if (method == MapMethod::tutte) EXPECT_EQ(d.flipped_after_solve, 0) << name;
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(IntermediateMap, IntermediateMapShared, ::testing::ValuesIn(kSharedDiskMeshes),
-                         [](const auto& info) {
-                           std::string s = info.param;
-                           for (char& ch : s)
-                             if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
-                           return s;
-                         });
+INSTANTIATE_TEST_SUITE_P(IntermediateMap, IntermediateMapShared, ::testing::ValuesIn(testmeshes::disk_meshes()),
+                         [](const auto& info) { return info.param.name(); });
 
 TEST(IntermediateMapCrowding, LongThinStripIsFlipFreeOrReportsItsFlipsExactly) {
   for (const auto& [name, m] : {std::pair<const char*, Mesh>{"grid200x2", grid(200, 2)},

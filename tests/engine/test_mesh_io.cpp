@@ -1,5 +1,5 @@
 // read_mesh_file: OpenMesh's readers driven through a recording importer. The shared meshes must arrive
-// with exactly the counts of data/meshes/README.md, and faces that OpenMesh's own mesh importer would drop
+// with exactly the counts of tests/data/meshes/README.md, and faces that OpenMesh's own mesh importer would drop
 // (non-manifold, duplicate) must arrive verbatim.
 #include <cstdlib>
 #include <filesystem>
@@ -9,7 +9,7 @@
 
 #include <gtest/gtest.h>
 
-#include "tests/support/data_dir.h"
+#include "tests/support/test_meshes.h"
 
 #include "engine/error.h"
 #include "engine/mesh_io.h"
@@ -18,8 +18,6 @@ namespace lipmap {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string mesh_path(const std::string& name) { return data_dir() + "/meshes/" + name; }
 
 // A file in a fresh temporary directory, removed with the fixture.
 class MeshIoTest : public ::testing::Test {
@@ -177,48 +175,35 @@ TEST_F(MeshIoTest, ObjFaceWithRepeatedCornerIsUnreadable) {
   }
 }
 
-// ---- the shared meshes: counts from data/meshes/README.md ------------------------------------------
+// ---- the test meshes: counts from tests/data/meshes/README.md (tests/support/test_meshes.h) ------------
 
-struct ReadmeCounts {
-  const char* file;
-  size_t vertices, faces;
-};
+class MeshIoTestCatalog : public ::testing::TestWithParam<testmeshes::MeshEntry> {};
 
-class MeshIoTestShared : public ::testing::TestWithParam<ReadmeCounts> {};
-
-TEST_P(MeshIoTestShared, CountsMatchReadme) {
-  const ReadmeCounts& expected = GetParam();
-  RawMesh mesh = read_mesh_file(mesh_path(expected.file));
-  EXPECT_EQ(mesh.vertices.size(), expected.vertices);
-  EXPECT_EQ(mesh.faces.size(), expected.faces);
+TEST_P(MeshIoTestCatalog, CountsMatchReadme) {
+  const testmeshes::MeshEntry& expected = GetParam();
+  RawMesh mesh = read_mesh_file(expected.path());
+  if (!expected.extra) {  // the README's counts
+    EXPECT_EQ(static_cast<long long>(mesh.vertices.size()), expected.vertices);
+    EXPECT_EQ(static_cast<long long>(mesh.faces.size()), expected.triangles);
+  }
   for (const auto& f : mesh.faces) {
     ASSERT_EQ(f.size(), 3u);
     for (long long v : f) ASSERT_TRUE(v >= 0 && v < static_cast<long long>(mesh.vertices.size()));
   }
+  if (expected.planar) {
+    for (const Point3& p : mesh.vertices) ASSERT_EQ(p.z, 0.0);
+  }
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Readme, MeshIoTestShared,
-    ::testing::Values(ReadmeCounts{"nefertiti.off", 299, 562}, ReadmeCounts{"blob.off", 138, 270},
-                      ReadmeCounts{"three_peaks.off", 1907, 3671}, ReadmeCounts{"woody.obj", 694, 1267},
-                      ReadmeCounts{"alligator.obj", 3208, 5981}, ReadmeCounts{"bump-domain.obj", 4172, 8058},
-                      ReadmeCounts{"maze.obj", 6120, 9174}, ReadmeCounts{"camel_b.obj", 2032, 3576},
-                      ReadmeCounts{"camel-head.off", 11381, 22704},
-                      ReadmeCounts{"mannequin-devil.off", 12977, 25888},
-                      ReadmeCounts{"keenan-ogre.obj", 19985, 39856},
-                      ReadmeCounts{"withZeroAreaTri_48.obj", 24510, 48855},
-                      ReadmeCounts{"mountain.obj", 25600, 50562}, ReadmeCounts{"face.obj", 25905, 51712},
-                      ReadmeCounts{"max-registration-partial.obj", 31894, 63347},
-                      ReadmeCounts{"invalid/triple_vierbein.obj", 75, 108},
-                      ReadmeCounts{"invalid/holes.off", 4291, 8288},
-                      ReadmeCounts{"invalid/blob-closed.off", 140, 276},
-                      ReadmeCounts{"invalid/punctured-torus.obj", 4599, 9184}),
-    [](const ::testing::TestParamInfo<ReadmeCounts>& info) {
-      std::string name = fs::path(info.param.file).stem().string();
-      for (char& c : name)
-        if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-      return name;
-    });
+std::vector<testmeshes::MeshEntry> catalog_and_extra() {
+  std::vector<testmeshes::MeshEntry> all = testmeshes::catalog();
+  for (const auto& e : testmeshes::disk_meshes())
+    if (e.extra) all.push_back(e);
+  return all;
+}
+
+INSTANTIATE_TEST_SUITE_P(Readme, MeshIoTestCatalog, ::testing::ValuesIn(catalog_and_extra()),
+                         [](const ::testing::TestParamInfo<testmeshes::MeshEntry>& info) { return info.param.name(); });
 
 }  // namespace
 }  // namespace lipmap

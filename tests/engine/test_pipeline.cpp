@@ -4,14 +4,14 @@
 // Suites:
 //   MapPipelineChecker     the checker itself on hand-made results, valid and broken (every check fails once)
 //   MapPipelineGenerators  the target generators' certificates (tests/support/target_generators.h)
-//   MapPipelineTargets/... every disk mesh of ../shared/data/meshes x target kind: parametrize, then the checker
+//   MapPipelineTargets/... every disk mesh (tests/support/test_meshes.h) x target kind: parametrize, then the
+//                          checker
 //   MapPipeline            special cases: degenerate mesh refused, a fan onto a polygon with empty kernel, a
 //                          snake strip (paper Fig. 9), non-self-overlapping boundaries refused, identity
 //                          reproduction (paper Fig. 13), refine off.
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
-#include <filesystem>
 #include <fstream>
 #include <map>
 #include <memory>
@@ -23,27 +23,14 @@
 
 #include <gtest/gtest.h>
 
-#include "tests/support/data_dir.h"
-
 #include "engine/error.h"
 #include "engine/mesh_io.h"
+#include "engine/pipeline.h"
 #include "engine/validate.h"
 #include "server/codec/json_codec.h"
 #include "tests/support/map_checker.h"
 #include "tests/support/target_generators.h"
-
-#if defined(__has_include)
-#if __has_include("engine/pipeline.cpp")
-#define LIPMAP_TEST_HAVE_PIPELINE 1
-#endif
-#endif
-#ifndef LIPMAP_TEST_HAVE_PIPELINE
-#define LIPMAP_TEST_HAVE_PIPELINE 0
-#endif
-
-#if LIPMAP_TEST_HAVE_PIPELINE
-#include "engine/pipeline.h"
-#endif
+#include "tests/support/test_meshes.h"
 
 namespace lipmap {
 namespace {
@@ -96,24 +83,27 @@ std::vector<int> boundary_loop_of(const std::vector<Triangle>& faces, std::size_
   return loop;
 }
 
-TestMesh load_mesh(const std::string& file) {
-  const RawMesh raw = read_mesh_file(data_dir() + "/meshes/" + file);
+TestMesh load_mesh(const testmeshes::MeshEntry& entry) {
+  const RawMesh raw = read_mesh_file(entry.path());
   TestMesh m;
-  m.name = file.substr(0, file.find('.'));
+  m.name = entry.name();
   m.vertices = raw.vertices;
   for (const auto& f : raw.faces) m.faces.push_back({int(f[0]), int(f[1]), int(f[2])});
   m.loop = boundary_loop_of(m.faces, m.vertices.size());
   return m;
 }
 
-const TestMesh& mesh(const std::string& file) {
+const TestMesh& mesh(const testmeshes::MeshEntry& entry) {
   static std::mutex mu;
   static std::map<std::string, std::unique_ptr<TestMesh>> cache;
   std::lock_guard<std::mutex> lock(mu);
-  auto& slot = cache[file];
-  if (!slot) slot = std::make_unique<TestMesh>(load_mesh(file));
+  auto& slot = cache[entry.path()];
+  if (!slot) slot = std::make_unique<TestMesh>(load_mesh(entry));
   return *slot;
 }
+
+// A file of tests/data/meshes.
+const TestMesh& mesh(const std::string& file) { return mesh(testmeshes::entry(file)); }
 
 targetgen::DiskMeshRef ref(const TestMesh& m) { return {m.vertices, m.faces, m.loop}; }
 
@@ -287,14 +277,15 @@ TEST(MapPipelineChecker, EveryCheckCanFail) {
 
 // ---- MapPipelineGenerators ----------------------------------------------------------------------------
 
-TEST(MapPipelineGenerators, BoundaryLoopOfTheSharedMeshes) {
-  for (const char* file : {"nefertiti.off", "blob.off", "woody.obj"}) {
-    const TestMesh& m = mesh(file);
-    ASSERT_FALSE(m.loop.empty()) << file;
-    EXPECT_EQ(*std::min_element(m.loop.begin(), m.loop.end()), m.loop[0]) << file;
+// The loop this file computes has the README's number of boundary vertices (small meshes of the catalog).
+TEST(MapPipelineGenerators, BoundaryLoopOfTheTestMeshes) {
+  for (const testmeshes::MeshEntry& e : testmeshes::catalog()) {
+    if (!e.disk || e.triangles > 10000) continue;
+    const TestMesh& m = mesh(e);
+    ASSERT_FALSE(m.loop.empty()) << e.file;
+    EXPECT_EQ(*std::min_element(m.loop.begin(), m.loop.end()), m.loop[0]) << e.file;
+    EXPECT_EQ(static_cast<long long>(m.loop.size()), e.boundary_vertices) << e.file;
   }
-  EXPECT_EQ(mesh("blob.off").loop.size(), 4u);
-  EXPECT_EQ(mesh("nefertiti.off").loop.size(), 34u);
 }
 
 // Every certificate is itself a valid answer by every check of section 2: a locally injective map whose
@@ -317,7 +308,7 @@ void expect_certificate_valid(const TestMesh& m, const targetgen::Target& t) {
 }
 
 TEST(MapPipelineGenerators, EveryKindHasItsCertificate) {
-  for (const char* file : {"nefertiti.off", "woody.obj", "three_peaks.off", "camel_b.obj"}) {
+  for (const char* file : {"nefertiti.off", "swirl_blob.obj", "three_peaks.off", "cut_bowl.obj"}) {
     const TestMesh& m = mesh(file);
     int by_construction = 0;
     for (Kind kind : targetgen::all_kinds()) {
@@ -347,8 +338,6 @@ TEST(MapPipelineGenerators, BlobHasOnlyFourBoundaryVerticesSoOnlyTheCircle) {
     EXPECT_EQ(t.has_value(), kind == Kind::circle) << targetgen::kind_name(kind) << ": " << why;
   }
 }
-
-#if LIPMAP_TEST_HAVE_PIPELINE
 
 // ---- running the pipeline and checking --------------------------------------------------------------
 
@@ -433,68 +422,36 @@ ParametrizeResult run_and_check(const TestMesh& m, const targetgen::Target& t, M
 // ---- MapPipelineTargets: every disk mesh x target kind ------------------------------------------------
 
 struct Case {
-  std::string file;
+  testmeshes::MeshEntry mesh;
   Kind kind;
 };
 
-void PrintTo(const Case& c, std::ostream* os) { *os << c.file << " / " << targetgen::kind_name(c.kind); }
+void PrintTo(const Case& c, std::ostream* os) { *os << c.mesh.file << " / " << targetgen::kind_name(c.kind); }
 
 std::string case_name(const testing::TestParamInfo<Case>& info) {
-  std::string s = info.param.file.substr(0, info.param.file.find('.')) + "_" + targetgen::kind_name(info.param.kind);
-  for (char& c : s)
-    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-  return s;
+  return info.param.mesh.name() + "_" + targetgen::kind_name(info.param.kind);
 }
 
-const std::vector<std::string>& disk_mesh_files() {
-  static const std::vector<std::string> files = {
-      "nefertiti.off",   "blob.off",       "woody.obj",           "three_peaks.off", "camel_b.obj",
-      "alligator.obj",   "bump-domain.obj", "maze.obj",           "camel-head.off",  "mannequin-devil.off",
-      "keenan-ogre.obj", "mountain.obj",   "face.obj",            "max-registration-partial.obj"};
-  return files;
-}
-
-// Every disk mesh with every kind (the acceptance of issue 3). maze.obj (3064 of its 6120 vertices on the
-// boundary, in corridors one or two triangles wide) is by far the slowest: its triangles join boundary
-// vertices far apart along the loop, and every generated target bends those chords, so refine inserts
-// tens of thousands of points there (each case up to about a minute on one core).
+// Every disk mesh with every kind. The narrow corridors (maze.obj: 3064 of its 6120 vertices on the
+// boundary, corridors one or two triangles wide; maze_corridor.obj likewise) are by far the slowest: their
+// triangles join boundary vertices far apart along the loop, and every generated target bends those
+// chords, so refine inserts tens of thousands of points there (each case up to about a minute on one core).
 std::vector<Case> all_cases() {
   std::vector<Case> cases;
-  for (const std::string& file : disk_mesh_files())
-    for (Kind k : targetgen::all_kinds()) cases.push_back({file, k});
+  for (const testmeshes::MeshEntry& m : testmeshes::disk_meshes())
+    for (Kind k : targetgen::all_kinds()) cases.push_back({m, k});
   return cases;
-}
-
-// The list above is every mesh file of the shared data that validate accepts as a disk: a mesh added to
-// the data must be added to the matrix.
-TEST(MapPipelineTargetList, CoversEverySharedDiskMesh) {
-  std::vector<std::string> on_disk;
-  for (const auto& entry : std::filesystem::directory_iterator(data_dir() + "/meshes")) {
-    if (!entry.is_regular_file()) continue;
-    const std::string name = entry.path().filename().string();
-    const std::string ext = entry.path().extension().string();
-    if (ext != ".obj" && ext != ".off" && ext != ".ply") continue;
-    try {
-      validate_mesh(read_mesh_file(entry.path().string()));
-      on_disk.push_back(name);
-    } catch (const InputError&) {  // withZeroAreaTri_48.obj: degenerate_face, refused by validate
-    }
-  }
-  std::vector<std::string> listed = disk_mesh_files();
-  std::sort(on_disk.begin(), on_disk.end());
-  std::sort(listed.begin(), listed.end());
-  EXPECT_EQ(listed, on_disk);
 }
 
 class MapPipelineTarget : public testing::TestWithParam<Case> {};
 
 TEST_P(MapPipelineTarget, PassesEveryCheck) {
   const Case& c = GetParam();
-  const TestMesh& m = mesh(c.file);
-  ASSERT_FALSE(m.loop.empty()) << c.file;
+  const TestMesh& m = mesh(c.mesh);
+  ASSERT_FALSE(m.loop.empty()) << c.mesh.file;
   std::string why;
   const auto t = targetgen::make_target(c.kind, ref(m), &why);
-  if (!t) GTEST_SKIP() << c.file << ": no " << targetgen::kind_name(c.kind) << " target: " << why;
+  if (!t) GTEST_SKIP() << c.mesh.file << ": no " << targetgen::kind_name(c.kind) << " target: " << why;
   run_and_check(m, *t);
 }
 
@@ -503,7 +460,7 @@ INSTANTIATE_TEST_SUITE_P(MapPipelineTargets, MapPipelineTarget, testing::ValuesI
 // ---- MapPipeline: special cases -----------------------------------------------------------------------
 
 TEST(MapPipeline, DegenerateMeshIsRefusedWithDegenerateFace) {
-  const RawMesh raw = read_mesh_file(data_dir() + "/meshes/withZeroAreaTri_48.obj");
+  const RawMesh raw = read_mesh_file(testmeshes::mesh_path("withZeroAreaTri_48.obj"));
   std::vector<Triangle> faces;
   for (const auto& f : raw.faces) faces.push_back({int(f[0]), int(f[1]), int(f[2])});
   const std::vector<int> loop = boundary_loop_of(faces, raw.vertices.size());
@@ -662,31 +619,33 @@ TEST(MapPipeline, NonSelfOverlappingBoundariesAreRefused) {
   EXPECT_THROW(parametrize(raw_of(m), b, {}), NotSelfOverlapping);
 }
 
-// Paper Fig. 13, identity reproduction. A planar mesh mapped onto its own boundary: the smooth dual
-// harmonic map is exactly the identity, the discrete one is not, because h_s is computed on the source's
-// triangulation and h_t on the target mesh (a CGAL quality mesh of the same polygon with other vertices):
-// two discretizations of the same harmonic map. Their difference is a discretization error of the order of
-// the mesh size near the boundary's sharp features. Tolerances (relative to the bounding-box diagonal):
-// mean displacement < 0.1 %, max < 1 % (measured: woody 0.023 % / 0.22 %, alligator 0.004 % / 0.16 %; the
-// margin covers other target-mesh densities and solver round-off, not a different algorithm). Tutte weights
-// are not a discretization of anything smooth that is triangulation-independent, so the two Tutte maps
-// disagree much more (measured: mean 0.48 % and 0.16 %): its mean displacement must be at least twice and
-// its maximum larger than the harmonic one.
+// Paper Fig. 13, identity reproduction, on every planar mesh of the catalog. A planar mesh mapped onto its
+// own boundary: the smooth dual harmonic map is exactly the identity, the discrete one is not, because h_s
+// is computed on the source's triangulation and h_t on the target mesh (a CGAL quality mesh of the same
+// polygon with other vertices): two discretizations of the same harmonic map. Their difference is a
+// discretization error of the order of the mesh size near the boundary's sharp features, so it is measured
+// in units of the source's mean boundary edge length h. Tolerances: mean displacement < 0.1 h, max < h
+// (measured, mean / max: swirl_blob 0.043 h / 0.35 h, swirl_domain 0.029 h / 0.22 h, maze_corridor
+// 0.011 h / 0.17 h, wiggly_strip 0.0032 h / 0.036 h; the margin covers other target-mesh densities and
+// solver round-off, not a different algorithm). Tutte weights are not a discretization of anything smooth
+// that is triangulation-independent, so the two Tutte maps disagree much more (measured mean: 1.08 h,
+// 2.6 h, 0.085 h, 0.27 h): its mean displacement must be at least twice and its maximum larger than the
+// harmonic one.
 struct Displacement {
   double max = 0, mean = 0;
 };
 
 Displacement displacement(const TestMesh& m, const ParametrizeResult& r, bool mirrored) {
-  double lo_x = 1e300, hi_x = -1e300, lo_y = 1e300, hi_y = -1e300;
-  for (const Point3& p : m.vertices) {
-    lo_x = std::min(lo_x, p.x), hi_x = std::max(hi_x, p.x);
-    lo_y = std::min(lo_y, p.y), hi_y = std::max(hi_y, p.y);
+  double h = 0;
+  for (std::size_t k = 0; k < m.loop.size(); ++k) {
+    const Point3 &a = m.vertices[m.loop[k]], &b = m.vertices[m.loop[(k + 1) % m.loop.size()]];
+    h += std::hypot(b.x - a.x, b.y - a.y);
   }
-  const double diag = std::hypot(hi_x - lo_x, hi_y - lo_y);
+  h /= double(m.loop.size());
   Displacement d;
   for (std::size_t v = 0; v < m.vertices.size(); ++v) {
     const double ex = m.vertices[v].x, ey = mirrored ? -m.vertices[v].y : m.vertices[v].y;
-    const double e = std::hypot(r.map.uv[v].x - ex, r.map.uv[v].y - ey) / diag;
+    const double e = std::hypot(r.map.uv[v].x - ex, r.map.uv[v].y - ey) / h;
     d.max = std::max(d.max, e);
     d.mean += e;
   }
@@ -695,8 +654,12 @@ Displacement displacement(const TestMesh& m, const ParametrizeResult& r, bool mi
 }
 
 TEST(MapPipeline, IdentityReproductionOfPlanarMeshes) {
-  for (const char* file : {"woody.obj", "alligator.obj"}) {
-    const TestMesh& m = mesh(file);
+  int planar = 0;
+  for (const testmeshes::MeshEntry& e : testmeshes::catalog()) {
+    if (!e.planar) continue;
+    ++planar;
+    const std::string file = e.file;
+    const TestMesh& m = mesh(e);
     // Positions: the boundary where it is. If the faces are clockwise in the plane the boundary would be a
     // clockwise polygon (not self-overlapping): then mirror y (the identity becomes the mirror map).
     long double signed_area = 0;
@@ -715,13 +678,14 @@ TEST(MapPipeline, IdentityReproductionOfPlanarMeshes) {
     const Displacement dh = displacement(m, harmonic, mirrored), dt = displacement(m, tutte, mirrored);
     RecordProperty(std::string(file) + "_harmonic_mean", std::to_string(dh.mean));
     RecordProperty(std::string(file) + "_tutte_mean", std::to_string(dt.mean));
-    std::printf("[ identity ] %s: harmonic max %.4g mean %.4g, tutte max %.4g mean %.4g (of the bbox diagonal)\n", file,
+    std::printf("[ identity ] %s: harmonic max %.4g mean %.4g, tutte max %.4g mean %.4g (of h)\n", file.c_str(),
                 dh.max, dh.mean, dt.max, dt.mean);
-    EXPECT_LT(dh.mean, 0.001) << file;
-    EXPECT_LT(dh.max, 0.01) << file;
+    EXPECT_LT(dh.mean, 0.1) << file;
+    EXPECT_LT(dh.max, 1.0) << file;
     EXPECT_GT(dt.mean, 2 * dh.mean) << file << ": tutte is not farther from the identity than harmonic";
     EXPECT_GT(dt.max, dh.max) << file;
   }
+  EXPECT_GE(planar, 4);
 }
 
 TEST(MapPipeline, RefineOffReturnsTheVertexWiseMapWithItsFlipsCounted) {
@@ -762,8 +726,6 @@ TEST(MapPipeline, ExplicitBoundaryVerticesStartingElsewhere) {
   const Report rep = check_map(src, b.positions, result_of(r));
   EXPECT_TRUE(rep.ok()) << rep.str();
 }
-
-#endif  // LIPMAP_TEST_HAVE_PIPELINE
 
 }  // namespace
 }  // namespace lipmap

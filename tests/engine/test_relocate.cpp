@@ -1,4 +1,4 @@
-// The relocation step between compose and refine (engine/relocate.h), run stage by stage on the small shared
+// The relocation step between compose and refine (engine/relocate.h), run stage by stage on the small test
 // meshes with every generated target kind. Properties, each with its reason:
 //   - the moved disk points still give an embedding h_s' (every source face strictly positive in the disk,
 //     exact): refine's guarantee needs a bijective source map;
@@ -14,7 +14,7 @@
 
 #include <gtest/gtest.h>
 
-#include "tests/support/data_dir.h"
+#include "tests/support/test_meshes.h"
 
 #include "engine/classify.h"
 #include "engine/compose.h"
@@ -41,15 +41,18 @@ int non_positive(const std::vector<Point2>& p, const std::vector<Triangle>& face
 }
 
 struct Case {
-  std::string file;
+  testmeshes::MeshEntry mesh;
   targetgen::Kind kind;
 };
 
+// The small disk meshes (at most 10k triangles) with enough boundary vertices for every kind, except the
+// narrow corridors (their refinement, not relocation, is what takes the time).
 std::vector<Case> cases() {
   std::vector<Case> out;
-  for (const char* file : {"nefertiti.off", "woody.obj", "three_peaks.off", "camel_b.obj", "alligator.obj",
-                           "bump-domain.obj"})
-    for (targetgen::Kind k : targetgen::all_kinds()) out.push_back({file, k});
+  for (const auto& m : testmeshes::disk_meshes_where([](const testmeshes::MeshEntry& e) {
+         return e.triangles >= 0 && e.triangles <= 10000 && e.boundary_vertices > 4 && !e.long_boundary;
+       }))
+    for (targetgen::Kind k : targetgen::all_kinds()) out.push_back({m, k});
   return out;
 }
 
@@ -57,7 +60,7 @@ class Relocate : public testing::TestWithParam<Case> {};
 
 TEST_P(Relocate, KeepsTheSourceMapBijectiveAndTheCompositionExact) {
   const Case& c = GetParam();
-  const DiskMesh mesh = validate_mesh(read_mesh_file(data_dir() + "/meshes/" + c.file));
+  const DiskMesh mesh = validate_mesh(read_mesh_file(c.mesh.path()));
   std::string why;
   const auto target_polygon =
       targetgen::make_target(c.kind, {mesh.vertices, mesh.faces, mesh.boundary_loop}, &why);
@@ -110,10 +113,7 @@ TEST_P(Relocate, KeepsTheSourceMapBijectiveAndTheCompositionExact) {
 }
 
 std::string case_name(const testing::TestParamInfo<Case>& info) {
-  std::string s = info.param.file.substr(0, info.param.file.find('.')) + "_" + targetgen::kind_name(info.param.kind);
-  for (char& ch : s)
-    if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
-  return s;
+  return info.param.mesh.name() + "_" + targetgen::kind_name(info.param.kind);
 }
 
 INSTANTIATE_TEST_SUITE_P(Relocate, Relocate, testing::ValuesIn(cases()), case_name);

@@ -1,5 +1,5 @@
-// Stage "validate": every error code with its element and index, the shared meshes (counts from
-// data/meshes/README.md), the boundary loop's start and orientation, and random grid disks.
+// Stage "validate": every error code with its element and index, the test meshes (counts from
+// tests/data/meshes/README.md), the boundary loop's start and orientation, and random grid disks.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -14,7 +14,7 @@
 
 #include <gtest/gtest.h>
 
-#include "tests/support/data_dir.h"
+#include "tests/support/test_meshes.h"
 
 #include "engine/boundary_polygon.h"
 #include "engine/error.h"
@@ -26,7 +26,7 @@ namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 
-std::string mesh_path(const std::string& name) { return data_dir() + "/meshes/" + name; }
+using testmeshes::mesh_path;
 
 // Runs fn and checks that it throws InputError with this code, element and index.
 InputError expect_error(const std::function<void()>& fn, const std::string& code, const std::string& element = {},
@@ -503,25 +503,22 @@ TEST(ValidateTestPolygon, RotationIndexOutOfRange) {
 
 // ---- the shared meshes ---------------------------------------------------------------------------------
 
-struct ReadmeDisk {
-  const char* file;
-  size_t vertices, faces, boundary_vertices;
-};
-
-class ValidateTestShared : public ::testing::TestWithParam<ReadmeDisk> {};
+class ValidateTestShared : public ::testing::TestWithParam<testmeshes::MeshEntry> {};
 
 TEST_P(ValidateTestShared, ValidatesWithReadmeCounts) {
-  const ReadmeDisk& expected = GetParam();
-  RawMesh raw = read_mesh_file(mesh_path(expected.file));
+  const testmeshes::MeshEntry& expected = GetParam();
+  RawMesh raw = read_mesh_file(expected.path());
   auto start = std::chrono::steady_clock::now();
   DiskMesh disk = validate_mesh(raw);
   double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   RecordProperty("validate_ms", std::to_string(ms));
-  EXPECT_EQ(disk.vertices.size(), expected.vertices);
-  EXPECT_EQ(disk.faces.size(), expected.faces);
-  EXPECT_EQ(disk.boundary_loop.size(), expected.boundary_vertices);
-  EXPECT_EQ(disk.topology.vertex_count(), static_cast<int>(expected.vertices));
-  EXPECT_EQ(disk.topology.face_count(), static_cast<int>(expected.faces));
+  if (!expected.extra) {  // the README's counts
+    EXPECT_EQ(static_cast<long long>(disk.vertices.size()), expected.vertices);
+    EXPECT_EQ(static_cast<long long>(disk.faces.size()), expected.triangles);
+    EXPECT_EQ(static_cast<long long>(disk.boundary_loop.size()), expected.boundary_vertices);
+  }
+  EXPECT_EQ(disk.topology.vertex_count(), static_cast<int>(disk.vertices.size()));
+  EXPECT_EQ(disk.topology.face_count(), static_cast<int>(disk.faces.size()));
 
   // Independent of validate's own walk: every step of the loop is a directed edge of a face (the faces on
   // its left) whose reverse no face has.
@@ -540,28 +537,11 @@ TEST_P(ValidateTestShared, ValidatesWithReadmeCounts) {
   for (const auto& [a, b] : directed)
     if (!directed.count({b, a})) on_boundary.insert(a);
   boundary_vertices = on_boundary.size();
-  EXPECT_EQ(boundary_vertices, expected.boundary_vertices);
+  EXPECT_EQ(boundary_vertices, disk.boundary_loop.size());
 }
 
-INSTANTIATE_TEST_SUITE_P(
-    Readme, ValidateTestShared,
-    ::testing::Values(ReadmeDisk{"nefertiti.off", 299, 562, 34}, ReadmeDisk{"blob.off", 138, 270, 4},
-                      ReadmeDisk{"three_peaks.off", 1907, 3671, 141}, ReadmeDisk{"woody.obj", 694, 1267, 119},
-                      ReadmeDisk{"alligator.obj", 3208, 5981, 433},
-                      ReadmeDisk{"bump-domain.obj", 4172, 8058, 284}, ReadmeDisk{"maze.obj", 6120, 9174, 3064},
-                      ReadmeDisk{"camel_b.obj", 2032, 3576, 486},
-                      ReadmeDisk{"camel-head.off", 11381, 22704, 56},
-                      ReadmeDisk{"mannequin-devil.off", 12977, 25888, 64},
-                      ReadmeDisk{"keenan-ogre.obj", 19985, 39856, 112},
-                      ReadmeDisk{"mountain.obj", 25600, 50562, 636}, ReadmeDisk{"face.obj", 25905, 51712, 96},
-                      ReadmeDisk{"max-registration-partial.obj", 31894, 63347, 439}),
-    [](const ::testing::TestParamInfo<ReadmeDisk>& info) {
-      std::string name = info.param.file;
-      name = name.substr(0, name.find('.'));
-      for (char& c : name)
-        if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-      return name;
-    });
+INSTANTIATE_TEST_SUITE_P(Readme, ValidateTestShared, ::testing::ValuesIn(testmeshes::disk_meshes()),
+                         [](const ::testing::TestParamInfo<testmeshes::MeshEntry>& info) { return info.param.name(); });
 
 // Runs validate on a mesh file and returns the error, or fails when it validates.
 InputError validate_file_error(const std::string& name) {
@@ -573,6 +553,17 @@ InputError validate_file_error(const std::string& name) {
   }
   ADD_FAILURE() << name << " validated";
   return InputError("none", "");
+}
+
+// Every catalog mesh that is not a disk is refused with the code its README line gives.
+TEST(ValidateTestInvalidMeshes, EveryNonDiskOfTheCatalogIsRefusedWithItsCode) {
+  int refused = 0;
+  for (const testmeshes::MeshEntry& e : testmeshes::catalog()) {
+    if (e.disk) continue;
+    EXPECT_EQ(validate_file_error(e.file).code(), e.error) << e.file;
+    ++refused;
+  }
+  EXPECT_EQ(refused, 5);
 }
 
 TEST(ValidateTestInvalidMeshes, ZeroAreaTriangleNamesAFaceOnTheCoincidentVertices) {

@@ -14,13 +14,13 @@ setup_file() {
   [ -d "$HTTP_ROOT/node_modules/gltf-validator" ] || { echo "npm ci first (gltf-validator)" >&2; return 1; }
   export TOOLS="$HTTP_ROOT/tests/tools" MESHES="$HTTP_ROOT/tests/data/meshes" FIX="$BATS_FILE_TMPDIR"
   local m
-  for m in nefertiti.off woody.obj blob.off; do
+  for m in nefertiti.off swirl_blob.obj blob.off; do
     node "$TOOLS/gltf_fixture.js" model "$MESHES/$m" "$FIX/${m%.*}.glb"
     node "$TOOLS/gltf_fixture.js" model "$MESHES/$m" "$FIX/${m%.*}.gltf"
     node "$TOOLS/gltf_fixture.js" target "$MESHES/$m" circle "$FIX/${m%.*}_circle.json"
   done
   node "$TOOLS/gltf_fixture.js" target "$MESHES/nefertiti.off" exp "$FIX/nefertiti_exp.json" 2>/dev/null
-  node "$TOOLS/gltf_fixture.js" target "$MESHES/woody.obj" exp "$FIX/woody_exp.json" 2>/dev/null
+  node "$TOOLS/gltf_fixture.js" target "$MESHES/swirl_blob.obj" exp "$FIX/swirl_blob_exp.json" 2>/dev/null
   start_server MAIN --workers 2 --queue 16
 }
 
@@ -51,13 +51,13 @@ gltf_ok() {
 @test "JSON envelope with gltf_base64, Accept model/gltf+json; and without Accept the JSON answer" {
   node -e 'const fs = require("fs"); process.stdout.write(JSON.stringify({gltf_base64: fs.readFileSync(process.argv[1]).toString("base64"),
     boundary: JSON.parse(fs.readFileSync(process.argv[2], "utf8")), options: {method: "tutte"}}))' \
-    "$FIX/woody.gltf" "$FIX/woody_exp.json" >"$BATS_TEST_TMPDIR/envelope.json"
+    "$FIX/swirl_blob.gltf" "$FIX/swirl_blob_exp.json" >"$BATS_TEST_TMPDIR/envelope.json"
   call POST "$MAIN_URL/v1/parametrize" -H 'Content-Type: application/json' -H 'Accept: model/gltf+json' \
     --data-binary @"$BATS_TEST_TMPDIR/envelope.json"
   expect 200
   [ "$ctype" = model/gltf+json ]
   cp "$answer" "$BATS_TEST_TMPDIR/out.gltf"
-  gltf_ok "$BATS_TEST_TMPDIR/out.gltf" "$FIX/woody.gltf" "$FIX/woody_exp.json"
+  gltf_ok "$BATS_TEST_TMPDIR/out.gltf" "$FIX/swirl_blob.gltf" "$FIX/swirl_blob_exp.json"
   jq -e '.meshes[0].primitives[0].extras.lipmap.verdict == "self_overlapping" and .materials[0].name == "fixture material"' "$answer"
   call -s parametrize-answer.schema.json POST "$MAIN_URL/v1/parametrize" -H 'Content-Type: application/json' \
     --data-binary @"$BATS_TEST_TMPDIR/envelope.json"
@@ -69,7 +69,7 @@ gltf_ok() {
 @test "a bare model/gltf-binary body with boundary=texcoord:0 keeps the chart's outline" {
   # First a map whose TEXCOORD_0 is a self-overlapping chart, then that glb alone with boundary=texcoord:0.
   call POST "$MAIN_URL/v1/parametrize" -H 'Accept: model/gltf-binary' \
-    -F "model=@$FIX/woody.glb;type=model/gltf-binary" -F "boundary=<$FIX/woody_exp.json;type=application/json"
+    -F "model=@$FIX/swirl_blob.glb;type=model/gltf-binary" -F "boundary=<$FIX/swirl_blob_exp.json;type=application/json"
   expect 200
   cp "$answer" "$BATS_TEST_TMPDIR/chart.glb"
   call POST "$MAIN_URL/v1/parametrize?boundary=texcoord:0" -H 'Content-Type: model/gltf-binary' \
