@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# HTTP service benchmark (issue 4): what the service adds to a job, and how throughput scales with workers.
+# HTTP service benchmark: what the service adds to a job, and how throughput scales with workers.
 #
 #   bash bench/bench_http.sh
 #

@@ -1,4 +1,4 @@
-// The engine as one call: each stage a function from one value to the next (DESIGN.md section 1).
+// The engine as one call: each stage a function from one value to the next (docs/architecture.md).
 #include "engine/pipeline.h"
 
 #include <chrono>

@@ -1,4 +1,4 @@
-// The whole engine as one call (DESIGN.md section 1): validate -> classify -> target mesh -> intermediate
+// The whole engine as one call (docs/architecture.md): validate -> classify -> target mesh -> intermediate
 // maps -> compose -> refine -> verify -> quality. Each stage is timed; the cancel token is checked between
 // stages and inside long loops; progress is reported by stage. No transport here: the CLI and the HTTP
 // server both call parametrize().

@@ -1,4 +1,4 @@
-// Stage "verify": DESIGN.md section 2, checked exactly on the doubles that will be returned.
+// Stage "verify": docs/contract.md, checked exactly on the doubles that will be returned.
 #include "engine/verify.h"
 
 #include <algorithm>

@@ -1,4 +1,4 @@
-// Stage "verify": the checks of DESIGN.md section 2 on a finished map, with exact predicates, before it is
+// Stage "verify": the checks of docs/contract.md on a finished map, with exact predicates, before it is
 // returned. A violation is a bug: verify_map throws InternalError naming the check and the element.
 #pragma once
 

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Installs every Debian package lipmap needs to build, run and test (DESIGN.md section 6).
+# Installs every Debian package lipmap needs to build, run and test (docs/build.md).
 # Idempotent: when everything is already present it does nothing and takes well under a second.
 #   bash scripts/setup.sh [--with-tests] [--with-bench]
 set -euo pipefail

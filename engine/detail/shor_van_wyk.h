@@ -21,7 +21,7 @@ struct ShorVanWykResult {
 // `polygon` is the closed polygon (vertex k joined to k+1 and the last to the first), interior on the left.
 // With `turns`, the triangulation angle at vertex k must be exactly sweep(k) + 2*pi*turns[k], where sweep(k)
 // in [0, 2*pi) runs counterclockwise from the direction of k+1 to the direction of k-1; the table keeps, per
-// sub-polygon, the set of feasible full-turn pairs at its two ends (DESIGN.md section 3), so no solution is
+// sub-polygon, the set of feasible full-turn pairs at its two ends (docs/hard-points.md), so no solution is
 // missed when turns > 0. Requires 0 <= turns[k] <= 7. Without `turns`, any triangulation with positive
 // triangles is accepted (the weakly self-overlapping test of section 3.1).
 // `allowed`, when given, can forbid triangles (i, k, j) besides the non-positive ones (the refinement uses

@@ -87,7 +87,7 @@ struct Selection {
 };
 
 // A glTF the codec cannot take. code() is stable (the CLI prints it, HTTP answers it as the problem code);
-// status() is 400 when the bytes are not a well-formed, self-contained glTF 2.0 document (gltf_truncated,
+// its status comes from the error table (server/codec/error_table.h): 400 when the bytes are not a well-formed, self-contained glTF 2.0 document (gltf_truncated,
 // gltf_bad_magic, gltf_invalid_chunk, gltf_invalid_json, gltf_unsupported_version, gltf_invalid,
 // gltf_invalid_data_uri, gltf_external_uri, gltf_buffer_out_of_range, gltf_accessor_mismatch,
 // gltf_index_out_of_range, gltf_index_count, gltf_invalid_base64, gltf_invalid_request) and 422 when it is
@@ -99,7 +99,6 @@ class GltfError : public InputError {
 public:
   GltfError(std::string code, const std::string& message, std::string gltf_pointer = {});
   const std::string& gltf_pointer() const { return gltf_pointer_; }
-  int status() const;
 
 private:
   std::string gltf_pointer_;
@@ -209,8 +208,6 @@ Request request_from_parts(const std::map<std::string, Part>& parts, const Param
 // True when a JSON body is a glTF envelope (has "gltf_base64").
 bool is_envelope(const nlohmann::json& body);
 
-// The problem+json of a GltfError (status(), code, detail, gltf_pointer); other errors are the caller's.
-nlohmann::ordered_json problem_json(const GltfError& error);
 
 // Base64 (RFC 4648, with padding; decoding ignores ASCII whitespace). decode throws GltfError
 // gltf_invalid_base64 naming the offset of the first bad character.

@@ -17,15 +17,6 @@ using namespace internal;
 GltfError::GltfError(std::string code, const std::string& message, std::string gltf_pointer)
     : InputError(std::move(code), message, "gltf"), gltf_pointer_(std::move(gltf_pointer)) {}
 
-int GltfError::status() const {
-  static const char* unprocessable[] = {"gltf_mesh_not_found",      "gltf_primitive_not_found", "gltf_unsupported_mode",
-                                        "gltf_no_position",         "gltf_no_triangles",        "gltf_texcoord_missing",
-                                        "gltf_unsupported_extension", "gltf_non_finite"};
-  for (const char* c : unprocessable)
-    if (code() == c) return 422;
-  return 400;
-}
-
 const char* media_type(Format format) { return format == Format::glb ? "model/gltf-binary" : "model/gltf+json"; }
 const char* extension(Format format) { return format == Format::glb ? ".glb" : ".gltf"; }
 const char* to_string(Weld weld) { return weld == Weld::position ? "position" : "none"; }

@@ -180,13 +180,6 @@ Request request_from_parts(const std::map<std::string, Part>& parts, const Param
   return finish(std::move(asset), texcoord, boundary, options);
 }
 
-nlohmann::ordered_json problem_json(const GltfError& error) {
-  const int status = error.status();
-  ordered_json p = codec::problem_json(status, status == 400 ? "Malformed glTF" : "glTF not mappable", error.code(), error.what());
-  if (!error.gltf_pointer().empty()) p["gltf_pointer"] = error.gltf_pointer();
-  return p;
-}
-
 // ---- base64 -------------------------------------------------------------------------------------------
 
 std::string base64_encode(std::string_view bytes) {

@@ -1,7 +1,7 @@
 // JSON <-> engine value types: the only place where JSON meets the engine (the CLI and the HTTP server
 // both go through here). Parsing is strict and every failure names the offending value by its RFC 6901
 // JSON pointer, so that a client can find field /mesh/faces/12/1 in a body of a million numbers.
-// The shapes are those of DESIGN.md section 4 and of the JSON Schemas in proto/.
+// The shapes are those of docs/api.md and of the JSON Schemas in proto/.
 #pragma once
 
 #include <cstddef>
@@ -77,10 +77,6 @@ nlohmann::ordered_json classify_request_to_json(const BoundaryPolygon& polygon);
 // Faces may have any number of corners and indices any integer value here: validate_mesh names those
 // faults (face_not_triangle, face_index_out_of_range) with the engine's codes.
 // The options are the engine's own (engine/parametrize_options.h; harmonic by default).
-// Transitional: the names below let server/http compile until it uses lipmap::MapMethod and
-// lipmap::ParametrizeOptions directly; they are aliases, not a second definition.
-using MapMethod = lipmap::MapMethod;
-using ParametrizeOptions = lipmap::ParametrizeOptions;
 
 struct ParametrizeRequest {
   RawMesh mesh;
@@ -96,9 +92,6 @@ nlohmann::ordered_json parametrize_request_to_json(const ParametrizeRequest& req
 // parametrize request; JSON pointers are relative to this document (e.g. /positions/3/0).
 RawBoundary boundary_from_json(const nlohmann::json& boundary);
 nlohmann::ordered_json boundary_to_json(const RawBoundary& boundary);
-
-// Transitional (see MapMethod above): the options unchanged.
-inline const lipmap::ParametrizeOptions& engine_options(const lipmap::ParametrizeOptions& options) { return options; }
 
 // ---- parametrize answer (200 of POST /v1/parametrize, GET /v1/jobs/{id}/result, `lipmap map -o X.json`) --
 // proto/parametrize-answer.schema.json:

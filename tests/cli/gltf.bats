@@ -3,7 +3,7 @@
 # .gltf at test time (tests/tools/gltf_fixture.js, into a temp dir) and mapped onto a circle and onto
 # self-overlapping targets made by construction (a Tutte map followed by exp, certified by the fixture tool).
 # Every glTF lipmap writes must pass Khronos's validator with zero errors (tests/tools/gltf_validate.js) and the
-# checks of tests/tools/gltf_check_map.js (DESIGN.md section 2 on the float32 uv as stored, boundary exactly
+# checks of tests/tools/gltf_check_map.js (docs/contract.md on the float32 uv as stored, boundary exactly
 # the float32 targets, NORMAL/COLOR_0/TEXCOORD_1 of inserted vertices interpolated). Bad glTF: exit 1 and one
 # line naming what is wrong.
 # Needs: node with the dev dependencies of package.json (npm ci), and a built binary ($LIPMAP_BIN or

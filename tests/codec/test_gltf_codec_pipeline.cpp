@@ -1,7 +1,7 @@
 // glTF through the whole engine (server/codec/gltf_codec.h with engine/pipeline.h):
 //   GltfPipeline   test disk meshes through parametrize onto a circle and self-overlapping targets
 //                  (tests/support/target_generators.h), written as .glb and .gltf, read back, checked with
-//                  tests/support/map_checker.h (DESIGN.md section 2) on the uv as stored in float32
+//                  tests/support/map_checker.h (docs/contract.md) on the uv as stored in float32
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -98,7 +98,7 @@ Outcome map_and_check(const std::string& name, const std::string& in, const std:
       ADD_FAILURE() << name << ": no TEXCOORD_0";
       return outcome;
     }
-    // DESIGN.md section 2 on the stored uv (s, 1 - t), against the float32 targets.
+    // docs/contract.md on the stored uv (s, 1 - t), against the float32 targets.
     mapcheck::SourceMesh src;
     src.vertices = asset.mesh().vertices;
     for (const auto& fc : asset.mesh().faces) src.faces.push_back({int(fc[0]), int(fc[1]), int(fc[2])});
@@ -272,7 +272,7 @@ TEST(GltfPipelineSpecial, TexcoordBoundaryKeepsTheChartOutline) {
   gltf::Params p;
   p.boundary = "texcoord:0";
   const gltf::Request req = gltf::request_from_model(in, Format::glb, p);
-  const ParametrizeResult r = parametrize(req.request.mesh, req.request.boundary, codec::engine_options(req.request.options));
+  const ParametrizeResult r = parametrize(req.request.mesh, req.request.boundary, req.request.options);
   EXPECT_EQ(r.classification.verdict, Verdict::self_overlapping);
   const std::string bytes = gltf::write_answer(req.asset, r, Format::glb);
   const auto tc = Asset::read(bytes).attribute("TEXCOORD_0");

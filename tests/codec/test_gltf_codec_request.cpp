@@ -22,6 +22,7 @@
 #include "engine/flip_check.h"
 #include "engine/mesh_io.h"
 #include "engine/refine.h"
+#include "server/codec/error_table.h"
 #include "server/codec/gltf_codec.h"
 #include "server/codec/json_codec.h"
 #include "tests/support/gltf_fixtures.h"
@@ -78,7 +79,7 @@ TEST(GltfRequest, EnvelopeAndMultipart) {
   EXPECT_TRUE(gltf::is_envelope(env));
   gltf::Request r = gltf::request_from_envelope(env, {});
   EXPECT_EQ(r.request.boundary.positions.size(), 4u);
-  EXPECT_EQ(r.request.options.method, codec::MapMethod::tutte);
+  EXPECT_EQ(r.request.options.method, lipmap::MapMethod::tutte);
   EXPECT_EQ(r.request.mesh.faces.size(), m.faces.size());
   // Shape errors keep their JSON pointers.
   json bad = env;
@@ -119,13 +120,9 @@ TEST(GltfRequest, EnvelopeAndMultipart) {
   expect_gltf_error([&] { gltf::request_from_parts(parts, {}); }, "gltf_invalid_json");
   parts.erase("model");
   expect_gltf_error([&] { gltf::request_from_parts(parts, {}); }, "gltf_invalid_request");
-  // Problem answers.
-  const GltfError e("gltf_unsupported_mode", "mode LINES", "/meshes/0/primitives/0/mode");
-  const auto pj = gltf::problem_json(e);
-  EXPECT_EQ(pj["status"], 422);
-  EXPECT_EQ(pj["code"], "gltf_unsupported_mode");
-  EXPECT_EQ(pj["gltf_pointer"], "/meshes/0/primitives/0/mode");
-  EXPECT_EQ(gltf::problem_json(GltfError("gltf_truncated", "x"))["status"], 400);
+  // A well-formed glTF whose primitive cannot be mapped is 422; bytes that are no glTF are 400.
+  EXPECT_EQ(codec::error_info("gltf_unsupported_mode").status, 422);
+  EXPECT_EQ(codec::error_info("gltf_truncated").status, 400);
 }
 
 }  // namespace

@@ -257,14 +257,14 @@ TEST(JsonCodecParametrizeRequest, ParsesTheDesignShape) {
   EXPECT_EQ(*r.boundary.vertices, (std::vector<long long>{0, 1, 3, 2}));
   EXPECT_EQ(r.boundary.positions.size(), 4u);
   EXPECT_EQ(*r.boundary.rotation_indices, (std::vector<long long>{0, 0, 0, 0}));
-  EXPECT_EQ(r.options.method, codec::MapMethod::harmonic);
+  EXPECT_EQ(r.options.method, lipmap::MapMethod::harmonic);
   EXPECT_FALSE(r.options.refine);
   EXPECT_EQ(r.options.target_density, 2.5);
 }
 
 TEST(JsonCodecParametrizeRequest, DefaultsWithoutOptions) {
   auto r = codec::parametrize_request_from_json(codec::parse_json(parametrize_body()));
-  EXPECT_EQ(r.options.method, codec::MapMethod::harmonic);  // DESIGN.md 4: harmonic is the default
+  EXPECT_EQ(r.options.method, lipmap::MapMethod::harmonic);  // docs/api.md: harmonic is the default
   EXPECT_TRUE(r.options.refine);
   EXPECT_EQ(r.options.target_density, 1.0);
   EXPECT_FALSE(r.boundary.vertices.has_value());
@@ -385,7 +385,7 @@ TEST(JsonCodecParametrizeRequest, RoundTrip) {
   r.boundary.vertices = std::vector<long long>{0, 1, 2};
   r.boundary.positions = {{0, 0}, {1.0 / 3.0, 0}, {0, 1}};
   r.boundary.rotation_indices = std::vector<long long>{0, 1, 0};
-  r.options.method = codec::MapMethod::harmonic;
+  r.options.method = lipmap::MapMethod::harmonic;
   r.options.refine = false;
   r.options.target_density = 0.75;
   auto s = codec::parametrize_request_from_json(codec::parse_json(codec::parametrize_request_to_json(r).dump()));

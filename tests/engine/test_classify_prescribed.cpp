@@ -344,7 +344,7 @@ TEST(ClassifyPrescribed, NegativeFamiliesRejectEveryPrescription) {
 
 // Small polygons against the exhaustive oracle: EVERY rotation-index vector with sum R = T - 1 (all of
 // them, enumerated) must succeed iff some positive triangulation realizes it. This exercises the
-// "set of feasible end-rotation pairs" of the table (DESIGN.md section 3): a table keeping one choice per
+// "set of feasible end-rotation pairs" of the table (docs/hard-points.md): a table keeping one choice per
 // entry misses some of the realizable vectors.
 void all_vectors_with_sum(int n, int sum, std::vector<int>& cur, int pos, std::vector<std::vector<int>>& out) {
   if (pos == n - 1) {

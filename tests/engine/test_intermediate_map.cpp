@@ -76,7 +76,7 @@ void expect_boundary_exact(const Mesh& m, const DiskMap& d, const std::string& l
   EXPECT_EQ(wrong, 0) << label << ": boundary vertices off their prescribed circle positions";
 }
 
-// Everything DESIGN.md asks of a bijective map onto the disk.
+// Everything docs/contract.md asks of a bijective map onto the disk.
 void expect_bijective_disk_map(const Mesh& m, const DiskMap& d, const std::string& label) {
   ASSERT_EQ(d.uv.size(), m.v.size()) << label;
   expect_boundary_exact(m, d, label);

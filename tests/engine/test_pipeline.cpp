@@ -1,5 +1,5 @@
 // The whole engine (engine/pipeline.h) end to end, checked by tests/support/map_checker.h, a checker of
-// DESIGN.md section 2 that shares no code with engine/verify.cpp.
+// docs/contract.md that shares no code with engine/verify.cpp.
 //
 // Suites:
 //   MapPipelineChecker     the checker itself on hand-made results, valid and broken (every check fails once)
@@ -375,7 +375,7 @@ std::string save_repro(const std::string& name, const TestMesh& m, const RawBoun
   codec::ParametrizeRequest request;
   request.mesh = raw_of(m);
   request.boundary = b;
-  request.options.method = method == MapMethod::tutte ? codec::MapMethod::tutte : codec::MapMethod::harmonic;
+  request.options.method = method;
   const std::string path = std::string(dir) + "/" + name + ".json";
   std::ofstream(path) << codec::dump(codec::parametrize_request_to_json(request)) << "\n";
   return " (request saved as " + path + ")";

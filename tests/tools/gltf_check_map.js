@@ -5,7 +5,7 @@
 //
 // BOUNDARY.json is the boundary document sent ({"vertices"?, "positions"}); texcoord:N means the boundary was
 // pinned to IN's TEXCOORD_N. --weld: the input's vertices with bit-identical POSITION were merged (lowest
-// index first), as lipmap's weld=position does. Checks (DESIGN.md section 2 on the float32 uv, in lipmap's
+// index first), as lipmap's weld=position does. Checks (docs/contract.md on the float32 uv, in lipmap's
 // convention (u, v) = (s, 1 - t), TEXCOORD_0 = (s, t)):
 //   - the output primitive is a disk whose boundary is the input's loop (same vertices, same direction);
 //   - original vertices keep their index and POSITION bits; inserted ones (extras.lipmap.inserted) lie on
