@@ -26,7 +26,8 @@
 //                      vertex v on original edge (a, b), the refined polygons of the two source faces on either
 //                      side (their corners and the inserted points on their edges, in order, in uv) are formed
 //                      without v. If both are simple and counterclockwise (exact orientation tests on the
-//                      doubles: such a polygon is trivially self-overlapping) and the uv angle sum at a and at b
+//                      doubles: such a polygon is trivially self-overlapping), both have a triangulation with no
+//                      triangle whose corners all lie on one original edge, and the uv angle sum at a and at b
 //                      would not change (when v is next to them on the edge), v was removable: a failure. A
 //                      removable point whose polygons are self-overlapping but not simple is not detected.
 #pragma once
@@ -196,6 +197,23 @@ inline bool simple_counterclockwise(const std::vector<Point2>& poly) {
   for (std::size_t i = 1; i < m; ++i)
     if (poly[i].x < poly[low].x || (poly[i].x == poly[low].x && poly[i].y < poly[low].y)) low = i;
   return orient(poly[(low + m - 1) % m], poly[low], poly[(low + 1) % m]) > 0;
+}
+
+// A triangulation of the polygon (no interior vertices) whose triangles are all strictly positive and none
+// has its three corners on one original edge (on[i]: bit e set when vertex i lies on source-face edge e).
+// Interval dynamic programming over the chains i..j, exact orientation tests: O(m^3).
+inline bool has_unflat_positive_triangulation(const std::vector<Point2>& poly, const std::vector<unsigned>& on) {
+  const std::size_t m = poly.size();
+  std::vector<char> ok(m * m, 0);  // ok[i * m + j]: chain i..j (closed by j-i) can be triangulated
+  for (std::size_t i = 0; i + 1 < m; ++i) ok[i * m + i + 1] = 1;
+  for (std::size_t len = 2; len < m; ++len)
+    for (std::size_t i = 0; i + len < m; ++i) {
+      const std::size_t j = i + len;
+      for (std::size_t k = i + 1; k < j && !ok[i * m + j]; ++k)
+        ok[i * m + j] = ok[i * m + k] && ok[k * m + j] && orient(poly[i], poly[k], poly[j]) > 0 &&
+                        !(on[i] & on[k] & on[j]);
+    }
+  return ok[m - 1];
 }
 
 // The counterclockwise angle from direction (from - o) to direction (to - o), in [0, 2 pi): magnitude in long
@@ -492,7 +510,22 @@ inline Report check_map(const SourceMesh& src, const std::vector<Point2>& prescr
         without[side].erase(std::remove(without[side].begin(), without[side].end(), v), without[side].end());
         std::vector<Point2> poly;
         for (int id : without[side]) poly.push_back(res.uv[id]);
-        removable = simple_counterclockwise(poly);
+        // Which source-face edges each vertex lies on: a corner on two, an inserted point on its own.
+        const Triangle& face = src.faces[it->second[side]];
+        std::vector<unsigned> on;
+        for (int id : without[side]) {
+          unsigned bits = 0;
+          for (int c = 0; c < 3; ++c) {
+            const int p = face[c], q = face[(c + 1) % 3];
+            const bool on_edge_c = id == p || id == q ||
+                                   (id >= static_cast<int>(n0) && key(res.inserted[id - n0].a, res.inserted[id - n0].b) == key(p, q));
+            if (on_edge_c) bits |= 1u << c;
+          }
+          on.push_back(bits);
+        }
+        // Simple and counterclockwise, and (the refinement's own rule) triangulable without a triangle flat on
+        // one original edge.
+        removable = simple_counterclockwise(poly) && has_unflat_positive_triangulation(poly, on);
       }
       if (!removable) continue;
       // The angle sum at an original endpoint next to v changes when the polygons' angles there do (by a full
