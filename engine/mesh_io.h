@@ -1,5 +1,6 @@
-// Reading and writing meshes with OpenMesh's own readers (OBJ, OFF, PLY, STL). Reading yields a RawMesh
-// untouched by any repair, so that validate sees exactly what the file says.
+// Reading and writing meshes. OBJ and OFF are read by a strict reader of our own in double precision; PLY
+// and STL by OpenMesh's readers. Reading yields a RawMesh untouched by any repair, so that validate sees
+// exactly what the file says.
 #pragma once
 
 #include <iosfwd>
@@ -11,10 +12,18 @@
 
 namespace lipmap {
 
-// Throws InputError: mesh_file_unreadable (missing, unknown extension, or the reader failed; also an OBJ
-// line that OpenMesh's reader would skip or rewrite: a 'v' line that is not three numbers, an 'f' line
-// that repeats a vertex or has fewer than 3 corners). OpenMesh 9.0's readers parse coordinates as float,
-// so positions read from a file are the single-precision values of the text.
+// Throws InputError mesh_file_unreadable (missing, a directory, unknown extension, or malformed), with a
+// one-line message naming the file and, for OBJ and OFF, the line.
+// OBJ and OFF: every coordinate is the double nearest to its decimal text (std::from_chars), so a file
+// written with 17 significant digits reads back bit for bit. OBJ: "v x y z [w | r g b]", "f" with corners
+// v, v/vt, v//vn, v/vt/vn (negative indices count back from the last vertex read), comments, CRLF; vt, vn,
+// vp, g, o, s, mtllib and usemtl lines are skipped, any other statement is an error, as is a 'v' line that
+// is not finite numbers or an 'f' line with fewer than 3 corners or a repeated vertex. OFF: the header
+// (OFF, or COFF/NOFF/STOFF... whose extra per-vertex values are checked and dropped), counts, comments,
+// CRLF; faces keep any corner count and any index, for validate to judge; a file shorter than its counts
+// announce, or with text after the last face, is an error.
+// PLY and STL: OpenMesh 9.0's readers, which parse coordinates as float, so positions read from them are
+// the single-precision values of the text.
 RawMesh read_mesh_file(const std::string& path);
 
 // ---- Writing ------------------------------------------------------------------------------------------

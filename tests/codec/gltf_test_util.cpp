@@ -36,7 +36,9 @@ const Mesh& shared_mesh(const std::string& file) {
     const RawMesh raw = read_mesh_file(entry.path());
     slot = std::make_unique<Mesh>();
     slot->name = entry.name();
-    slot->vertices = raw.vertices;
+    // glTF POSITION is float32: the meshes are taken at float precision (OBJ/OFF are read in doubles).
+    for (const Point3& p : raw.vertices)
+      slot->vertices.push_back({gltftest::f32(p.x), gltftest::f32(p.y), gltftest::f32(p.z)});
     for (const auto& f : raw.faces) slot->faces.push_back({int(f[0]), int(f[1]), int(f[2])});
   }
   return *slot;

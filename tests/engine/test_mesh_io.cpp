@@ -120,13 +120,6 @@ TEST_F(MeshIoTest, ReadsAsciiStlAndMergesCornerCopies) {
   for (const auto& f : mesh.faces) EXPECT_EQ(f.size(), 3u);
 }
 
-// A limitation of OpenMesh 9.0's readers, pinned down so that a change is noticed: they parse floats.
-TEST_F(MeshIoTest, CoordinatesArriveInSinglePrecision) {
-  RawMesh mesh = read_mesh_file(write("p.obj", "v 0.1 0.2 0.3\nv 1 0 0\nv 0 1 0\nf 1 2 3\n"));
-  EXPECT_EQ(mesh.vertices[0].x, static_cast<double>(0.1f));
-  EXPECT_EQ(mesh.vertices[0].z, static_cast<double>(0.3f));
-}
-
 TEST_F(MeshIoTest, MissingFileIsUnreadableAndNamed) {
   std::string path = (dir_ / "nope.obj").string();
   InputError e = read_error(path);

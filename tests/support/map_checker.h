@@ -1,4 +1,4 @@
-// Independent checker of a finished map against DESIGN.md section 2 (tests and benchmarks only).
+// Independent checker of a finished map against docs/contract.md (tests and benchmarks only).
 //
 // It shares no code with engine/verify.cpp (nor with any other engine source): the only engine header it
 // includes is engine/geometry.h for the plain value types Point2 / Point3 / Triangle. The orientation
@@ -22,6 +22,14 @@
 //   area               3D area of the result equals the source's within 1e-9 relative
 //   disk               manifold edges, consistent orientation, every vertex used, one fan per vertex,
 //                      V - E + F = 1, a single boundary loop equal (as a cycle, same direction) to the source's
+//   minimal            no inserted point could have been removed (paper 4, Fig. 11), one-sided: for an inserted
+//                      vertex v on original edge (a, b), the refined polygons of the two source faces on either
+//                      side (their corners and the inserted points on their edges, in order, in uv) are formed
+//                      without v. If both are simple and counterclockwise (exact orientation tests on the
+//                      doubles: such a polygon is trivially self-overlapping), both have a triangulation with no
+//                      triangle whose corners all lie on one original edge, and the uv angle sum at a and at b
+//                      would not change (when v is next to them on the edge), v was removable: a failure. A
+//                      removable point whose polygons are self-overlapping but not simple is not detected.
 #pragma once
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
@@ -150,6 +158,75 @@ inline std::unordered_map<std::uint64_t, EdgeUse> edge_uses(const std::vector<Tr
   return uses;
 }
 
+
+// ---- minimality (Fig. 11) helpers ----
+
+// Closed segments pq and rs share a point (exact: orientation tests and coordinate comparisons).
+inline bool on_segment(const Point2& p, const Point2& q, const Point2& r) {  // r on pq, given collinear
+  return std::min(p.x, q.x) <= r.x && r.x <= std::max(p.x, q.x) && std::min(p.y, q.y) <= r.y &&
+         r.y <= std::max(p.y, q.y);
+}
+inline bool segments_meet(const Point2& p, const Point2& q, const Point2& r, const Point2& s) {
+  const int o1 = orient(p, q, r), o2 = orient(p, q, s), o3 = orient(r, s, p), o4 = orient(r, s, q);
+  if (o1 != o2 && o3 != o4 && o1 != 0 && o2 != 0 && o3 != 0 && o4 != 0) return true;
+  return (o1 == 0 && on_segment(p, q, r)) || (o2 == 0 && on_segment(p, q, s)) || (o3 == 0 && on_segment(r, s, p)) ||
+         (o4 == 0 && on_segment(r, s, q));
+}
+
+// A closed polygon is simple and counterclockwise: no two vertices equal, consecutive edges meet only at their
+// common vertex, other edges not at all; orientation taken at the lexicographically smallest vertex (a convex
+// hull vertex of a simple polygon, where the turn is strict).
+inline bool simple_counterclockwise(const std::vector<Point2>& poly) {
+  const std::size_t m = poly.size();
+  if (m < 3) return false;
+  for (std::size_t i = 0; i < m; ++i)
+    for (std::size_t j = i + 1; j < m; ++j)
+      if (poly[i] == poly[j]) return false;
+  for (std::size_t i = 0; i < m; ++i) {
+    const Point2 &p = poly[i], &q = poly[(i + 1) % m], &r = poly[(i + 2) % m];
+    // Consecutive edges pq, qr overlap beyond q when r is collinear and on p's side of q (the signs of exact
+    // coordinate differences decide it, q being distinct from both).
+    auto sign = [](double d) { return (d > 0) - (d < 0); };
+    if (orient(p, q, r) == 0 && sign(r.x - q.x) == sign(p.x - q.x) && sign(r.y - q.y) == sign(p.y - q.y)) return false;
+    for (std::size_t j = i + 2; j < m; ++j) {
+      if (i == 0 && j == m - 1) continue;  // edges m-1 and 0 are consecutive
+      if (segments_meet(p, q, poly[j], poly[(j + 1) % m])) return false;
+    }
+  }
+  std::size_t low = 0;
+  for (std::size_t i = 1; i < m; ++i)
+    if (poly[i].x < poly[low].x || (poly[i].x == poly[low].x && poly[i].y < poly[low].y)) low = i;
+  return orient(poly[(low + m - 1) % m], poly[low], poly[(low + 1) % m]) > 0;
+}
+
+// A triangulation of the polygon (no interior vertices) whose triangles are all strictly positive and none
+// has its three corners on one original edge (on[i]: bit e set when vertex i lies on source-face edge e).
+// Interval dynamic programming over the chains i..j, exact orientation tests: O(m^3).
+inline bool has_unflat_positive_triangulation(const std::vector<Point2>& poly, const std::vector<unsigned>& on) {
+  const std::size_t m = poly.size();
+  std::vector<char> ok(m * m, 0);  // ok[i * m + j]: chain i..j (closed by j-i) can be triangulated
+  for (std::size_t i = 0; i + 1 < m; ++i) ok[i * m + i + 1] = 1;
+  for (std::size_t len = 2; len < m; ++len)
+    for (std::size_t i = 0; i + len < m; ++i) {
+      const std::size_t j = i + len;
+      for (std::size_t k = i + 1; k < j && !ok[i * m + j]; ++k)
+        ok[i * m + j] = ok[i * m + k] && ok[k * m + j] && orient(poly[i], poly[k], poly[j]) > 0 &&
+                        !(on[i] & on[k] & on[j]);
+    }
+  return ok[m - 1];
+}
+
+// The counterclockwise angle from direction (from - o) to direction (to - o), in [0, 2 pi): magnitude in long
+// double, side from the exact predicate.
+inline long double ccw_angle(const Point2& o, const Point2& from, const Point2& to) {
+  const long double ux = (long double)from.x - o.x, uy = (long double)from.y - o.y;
+  const long double wx = (long double)to.x - o.x, wy = (long double)to.y - o.y;
+  const long double mag = std::fabs(std::atan2(ux * wy - uy * wx, ux * wx + uy * wy));
+  const int side = orient(o, from, to);
+  if (side > 0) return mag;
+  if (side < 0) return kTwoPi - mag;
+  return ux * wx + uy * wy > 0 ? 0.0L : kPi;
+}
 }  // namespace detail
 
 // rotation_indices: optional, one per loop position (the prescription the map must honour).
@@ -378,6 +455,104 @@ inline Report check_map(const SourceMesh& src, const std::vector<Point2>& prescr
                                   "): uv angle sum " + num(static_cast<double>(theta[v])) + ", expected interior angle " +
                                   num(static_cast<double>(alpha)) + " + 2 pi * " +
                                   std::to_string((*rotation_indices)[k]));
+    }
+  }
+
+  // ---- 6. minimal: no inserted point could be removed (Fig. 11) ----
+  if (nv == n0 + res.inserted.size() && !rep.has("shape") && !rep.has("inserted_edge")) {
+    // Source faces on each undirected edge; inserted points on each edge, ordered by t (from min to max index).
+    std::unordered_map<std::uint64_t, std::vector<int>> edge_faces;
+    for (std::size_t f = 0; f < src.faces.size(); ++f)
+      for (int c = 0; c < 3; ++c) edge_faces[key(src.faces[f][c], src.faces[f][(c + 1) % 3])].push_back(static_cast<int>(f));
+    std::unordered_map<std::uint64_t, std::vector<std::pair<double, int>>> on_source_edge;
+    for (std::size_t i = 0; i < res.inserted.size(); ++i)
+      on_source_edge[key(res.inserted[i].a, res.inserted[i].b)].push_back({res.inserted[i].t, static_cast<int>(n0 + i)});
+    for (auto& [k, points] : on_source_edge) std::sort(points.begin(), points.end());
+    // Refined polygon of source face f: vertex ids, counterclockwise.
+    auto refined_polygon = [&](int f) {
+      std::vector<int> ids;
+      for (int c = 0; c < 3; ++c) {
+        const int p = src.faces[f][c], q = src.faces[f][(c + 1) % 3];
+        ids.push_back(p);
+        auto it = on_source_edge.find(key(p, q));
+        if (it == on_source_edge.end()) continue;
+        if (p < q) for (const auto& tp : it->second) ids.push_back(tp.second);
+        else for (auto r = it->second.rbegin(); r != it->second.rend(); ++r) ids.push_back(r->second);
+      }
+      return ids;
+    };
+    // Faces of the result inside source face f: all three corners on f's refined polygon (a face of the other
+    // side with all corners on the shared edge would be degenerate_3d).
+    auto angle_in_face = [&](int f, int vertex) {
+      std::vector<int> ids = refined_polygon(f);
+      std::sort(ids.begin(), ids.end());
+      long double sum = 0;
+      for (const Triangle& t : res.faces) {
+        int at = -1;
+        bool inside = true;
+        for (int c = 0; c < 3 && inside; ++c) {
+          inside = std::binary_search(ids.begin(), ids.end(), t[c]);
+          if (t[c] == vertex) at = c;
+        }
+        if (inside && at >= 0) sum += corner_angle(res.uv[t[at]], res.uv[t[(at + 1) % 3]], res.uv[t[(at + 2) % 3]]);
+      }
+      return sum;
+    };
+    for (std::size_t i = 0; i < res.inserted.size(); ++i) {
+      const int v = static_cast<int>(n0 + i);
+      const Inserted& ins = res.inserted[i];
+      const auto it = edge_faces.find(key(ins.a, ins.b));
+      if (it == edge_faces.end() || it->second.size() != 2) continue;  // reported above
+      bool removable = true;
+      std::vector<std::vector<int>> without(2);
+      for (int side = 0; side < 2 && removable; ++side) {
+        without[side] = refined_polygon(it->second[side]);
+        without[side].erase(std::remove(without[side].begin(), without[side].end(), v), without[side].end());
+        std::vector<Point2> poly;
+        for (int id : without[side]) poly.push_back(res.uv[id]);
+        // Which source-face edges each vertex lies on: a corner on two, an inserted point on its own.
+        const Triangle& face = src.faces[it->second[side]];
+        std::vector<unsigned> on;
+        for (int id : without[side]) {
+          unsigned bits = 0;
+          for (int c = 0; c < 3; ++c) {
+            const int p = face[c], q = face[(c + 1) % 3];
+            const bool on_edge_c = id == p || id == q ||
+                                   (id >= static_cast<int>(n0) && key(res.inserted[id - n0].a, res.inserted[id - n0].b) == key(p, q));
+            if (on_edge_c) bits |= 1u << c;
+          }
+          on.push_back(bits);
+        }
+        // Simple and counterclockwise, and (the refinement's own rule) triangulable without a triangle flat on
+        // one original edge.
+        removable = simple_counterclockwise(poly) && has_unflat_positive_triangulation(poly, on);
+      }
+      if (!removable) continue;
+      // The angle sum at an original endpoint next to v changes when the polygons' angles there do (by a full
+      // turn): then the removal would break the angle sum and v is needed. (At an inserted neighbour on the
+      // same edge the two angles always add up to 2 pi.)
+      const auto& chain = on_source_edge[key(ins.a, ins.b)];
+      const auto pos = std::find_if(chain.begin(), chain.end(), [&](const auto& tp) { return tp.second == v; }) - chain.begin();
+      std::vector<int> endpoints;
+      if (pos == 0) endpoints.push_back(std::min(ins.a, ins.b));
+      if (pos + 1 == static_cast<long>(chain.size())) endpoints.push_back(std::max(ins.a, ins.b));
+      for (int e : endpoints) {
+        long double before = 0, after = 0;
+        for (int side = 0; side < 2; ++side) {
+          before += angle_in_face(it->second[side], e);
+          const std::vector<int>& ids = without[side];
+          const std::size_t m = ids.size();
+          const std::size_t at = std::find(ids.begin(), ids.end(), e) - ids.begin();
+          // Interior angle of a counterclockwise polygon at ids[at]: from the next vertex round to the previous.
+          after += ccw_angle(res.uv[e], res.uv[ids[(at + 1) % m]], res.uv[ids[(at + m - 1) % m]]);
+        }
+        if (std::fabs(before - after) > kPi) removable = false;
+      }
+      if (removable)
+        add("minimal", "inserted vertex " + std::to_string(v) + " on edge (" + std::to_string(ins.a) + ", " +
+                           std::to_string(ins.b) + ") could be removed: the refined polygons of source faces " +
+                           std::to_string(it->second[0]) + " and " + std::to_string(it->second[1]) +
+                           " stay simple and counterclockwise without it");
     }
   }
 
