@@ -1,4 +1,4 @@
-// Stage "verify" (DESIGN.md section 2): it accepts good maps and rejects each violation of the contract with
+// Stage "verify" (docs/contract.md): it accepts good maps and rejects each violation of the contract with
 // its reason. The maps are built here on generated grid disks with dyadic coordinates (so that midpoints and
 // a + t (b - a) are exact), and each violation is made by hand; the expected reason follows from the
 // construction, not from the program's output.
