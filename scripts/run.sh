@@ -13,6 +13,8 @@ set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 build_dir="${LIPMAP_BUILD_DIR:-build}"
 jobs="${LIPMAP_JOBS:-2}"
+# ccache keys on paths relative to the checkout, so that every clone of the repository shares one cache.
+export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$PWD}"
 export LIPMAP_HOST="${LIPMAP_HOST:-127.0.0.1}"
 export LIPMAP_PORT="${LIPMAP_PORT:-8080}"
 polygon="${1:-tests/data/polygons/spiral_overlapping.json}"

@@ -10,6 +10,8 @@ cd "$(dirname "${BASH_SOURCE[0]}")/.."
 root="$PWD"
 build_dir="${LIPMAP_BUILD_DIR:-build}"
 jobs="${LIPMAP_JOBS:-2}"
+# ccache keys on paths relative to the checkout, so that every clone of the repository shares one cache.
+export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$PWD}"
 
 echo "== setup"
 bash scripts/setup.sh --with-tests
