@@ -25,8 +25,6 @@
 
 namespace lipmap::gltfcodectest {
 
-using gltf::GltfError;
-
 const Mesh& shared_mesh(const std::string& file) {
   static std::mutex mu;
   static std::map<std::string, std::unique_ptr<Mesh>> cache;
