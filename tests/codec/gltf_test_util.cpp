@@ -20,11 +20,10 @@
 #include "server/codec/gltf_codec.h"
 #include "tests/support/data_dir.h"
 #include "tests/support/gltf_fixtures.h"
+#include "tests/support/grid_cells.h"
 #include "tests/support/test_meshes.h"
 
 namespace lipmap::gltfcodectest {
-
-using gltf::GltfError;
 
 const Mesh& shared_mesh(const std::string& file) {
   static std::mutex mu;
@@ -53,12 +52,7 @@ Mesh grid(int n) {
       const double x = double(i) / (n - 1), y = double(j) / (n - 1);
       m.vertices.push_back({gltftest::f32((x)), gltftest::f32((y)), gltftest::f32((0.2 * std::sin(3 * x) * std::sin(3 * y)))});
     }
-  for (int j = 0; j + 1 < n; ++j)
-    for (int i = 0; i + 1 < n; ++i) {
-      const int a = j * n + i, b = a + 1, c = a + n + 1, d = a + n;
-      m.faces.push_back({a, b, c});
-      m.faces.push_back({a, c, d});
-    }
+  m.faces = testgen::grid_triangles(n - 1, n - 1, [](int, int) { return true; });
   return m;
 }
 

@@ -11,9 +11,21 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "engine/geometry.h"
+#include "server/codec/gltf_codec.h"
+#include "tests/support/gltf_fixtures.h"
 
 namespace lipmap::gltfcodectest {
+
+// The names every glTF codec test uses (each test file says `using namespace gltfcodectest`).
+using gltf::Asset;
+using gltf::Format;
+using gltf::GltfError;
+using gltftest::FixtureOptions;
+using gltftest::make_gltf;
+using nlohmann::json;
 
 struct Mesh {
   std::string name;

@@ -37,12 +37,6 @@
 namespace lipmap {
 namespace {
 
-using gltf::Asset;
-using gltf::Format;
-using gltf::GltfError;
-using gltftest::FixtureOptions;
-using gltftest::make_gltf;
-using nlohmann::json;
 using namespace gltfcodectest;
 
 // ---- GltfFormat ---------------------------------------------------------------------------------------

@@ -17,6 +17,7 @@
 
 #include "server/codec/request_loader.h"
 #include "tests/support/gltf_fixtures.h"
+#include "tests/support/grid_cells.h"
 
 namespace lipmap {
 namespace {
@@ -42,16 +43,8 @@ Grid grid(int n, std::mt19937& rng) {
       g.vertices.push_back({i * 0.25 + dx, j * 0.25 + dy, (i * j % 3) / 8.0});
       g.texcoord.push_back({gltftest::f32(0.1 + i * 0.8 / (n - 1)), gltftest::f32(0.95 - j * 0.85 / (n - 1))});
     }
-  for (int j = 0; j + 1 < n; ++j)
-    for (int i = 0; i + 1 < n; ++i) {
-      const int a = j * n + i, b = a + 1, c = a + n + 1, d = a + n;
-      g.faces.push_back({a, b, c});
-      g.faces.push_back({a, c, d});
-    }
-  for (int i = 0; i < n - 1; ++i) g.loop.push_back(i);
-  for (int j = 0; j < n - 1; ++j) g.loop.push_back(j * n + n - 1);
-  for (int i = n - 1; i > 0; --i) g.loop.push_back((n - 1) * n + i);
-  for (int j = n - 1; j > 0; --j) g.loop.push_back(j * n);
+  g.faces = testgen::grid_triangles(n - 1, n - 1, [](int, int) { return true; });
+  g.loop = testgen::grid_boundary(n - 1, n - 1);
   return g;
 }
 

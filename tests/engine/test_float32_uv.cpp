@@ -17,6 +17,7 @@
 #include <gtest/gtest.h>
 
 #include "engine/float32_uv.h"
+#include "tests/support/grid_cells.h"
 
 namespace lipmap {
 namespace {
@@ -118,17 +119,7 @@ Map grid(std::mt19937& rng, int index) {
       m.uv.push_back({x0 + i * h + jitter * (2 * unit(rng) - 1), y0 + j * h + jitter * (2 * unit(rng) - 1)});
       m.boundary.push_back(border ? 1 : 0);
     }
-  for (int j = 0; j + 1 < n; ++j)
-    for (int i = 0; i + 1 < n; ++i) {
-      const int a = j * n + i, b = a + 1, c = a + n + 1, d = a + n;
-      if ((i + j) % 2) {
-        m.faces.push_back({a, b, c});
-        m.faces.push_back({a, c, d});
-      } else {
-        m.faces.push_back({a, b, d});
-        m.faces.push_back({b, c, d});
-      }
-    }
+  m.faces = testgen::grid_triangles(n - 1, n - 1, testgen::alternating_diagonal);
   return m;
 }
 

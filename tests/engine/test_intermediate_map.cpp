@@ -20,6 +20,7 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/support/grid_cells.h"
 #include "tests/support/test_meshes.h"
 
 #include <CGAL/Gmpq.h>
@@ -159,24 +160,13 @@ struct Jitter {
 Mesh grid(int nx, int ny, double sx = 1.0, double sy = 1.0, double jitter = 0.0, std::uint64_t seed = 1) {
   Mesh m;
   Jitter rnd{seed};
-  auto id = [&](int i, int j) { return j * (nx + 1) + i; };
   for (int j = 0; j <= ny; ++j)
     for (int i = 0; i <= nx; ++i) {
       const bool boundary = i == 0 || j == 0 || i == nx || j == ny;
       const double dx = boundary ? 0.0 : jitter * rnd(), dy = boundary ? 0.0 : jitter * rnd();
       m.v.push_back({(i + dx) * sx, (j + dy) * sy, 0.0});
     }
-  for (int j = 0; j < ny; ++j)
-    for (int i = 0; i < nx; ++i) {
-      const int a = id(i, j), b = id(i + 1, j), c = id(i + 1, j + 1), d = id(i, j + 1);
-      if ((i + j) % 2) {
-        m.f.push_back({a, b, c});
-        m.f.push_back({a, c, d});
-      } else {
-        m.f.push_back({a, b, d});
-        m.f.push_back({b, c, d});
-      }
-    }
+  m.f = testgen::grid_triangles(nx, ny, testgen::alternating_diagonal);
   m.loop = boundary_loop_of(m.f);
   return m;
 }
@@ -265,19 +255,8 @@ Mesh harmonic_fold_grid() {
   const int nx = 7, ny = 3;
   Mesh m;
   for (const auto& p : xy) m.v.push_back({p[0], p[1], 0.0});
-  auto id = [&](int i, int j) { return j * (nx + 1) + i; };
-  int q = 0;
-  for (int j = 0; j < ny; ++j)
-    for (int i = 0; i < nx; ++i, ++q) {
-      const int a = id(i, j), b = id(i + 1, j), c = id(i + 1, j + 1), d = id(i, j + 1);
-      if (diagonals[q] == '1') {
-        m.f.push_back({a, b, d});
-        m.f.push_back({b, c, d});
-      } else {
-        m.f.push_back({a, b, c});
-        m.f.push_back({a, c, d});
-      }
-    }
+  // diagonals[j * nx + i] == '1': cell (i, j) split by b-d.
+  m.f = testgen::grid_triangles(nx, ny, [&](int i, int j) { return diagonals[j * nx + i] != '1'; });
   m.loop = boundary_loop_of(m.f);
   return m;
 }

@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/support/temp_dir_fixture.h"
 #include "tests/support/test_meshes.h"
 
 #include "engine/error.h"
@@ -17,24 +18,10 @@
 namespace lipmap {
 namespace {
 
-namespace fs = std::filesystem;
-
-// A file in a fresh temporary directory, removed with the fixture.
-class MeshIoTest : public ::testing::Test {
+// Files in a fresh temporary directory, removed with the fixture.
+class MeshIoTest : public TempDirTest {
 protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("lipmap_mesh_io_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  std::string write(const std::string& name, const std::string& text) {
-    std::string path = (dir_ / name).string();
-    std::ofstream(path, std::ios::binary) << text;
-    return path;
-  }
+  MeshIoTest() : TempDirTest("lipmap_mesh_io_") {}
 
   static InputError read_error(const std::string& path) {
     try {
@@ -45,8 +32,6 @@ protected:
     ADD_FAILURE() << "reading " << path << " did not throw";
     return InputError("none", "");
   }
-
-  fs::path dir_;
 };
 
 std::vector<long long> face(long long a, long long b, long long c) { return {a, b, c}; }

@@ -21,6 +21,7 @@
 #include <OpenMesh/Core/Mesh/PolyMesh_ArrayKernelT.hh>
 
 #include "tests/support/data_dir.h"
+#include "tests/support/temp_dir_fixture.h"
 
 #include "engine/error.h"
 #include "engine/mesh_io.h"
@@ -42,23 +43,9 @@ std::string g17(double v) {
   return buf;
 }
 
-class MeshIoDouble : public ::testing::Test {
+class MeshIoDouble : public TempDirTest {
 protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("lipmap_mesh_io_double_" + std::to_string(::testing::UnitTest::GetInstance()->random_seed()) + "_" +
-            ::testing::UnitTest::GetInstance()->current_test_info()->name());
-    fs::create_directories(dir_);
-  }
-  void TearDown() override { fs::remove_all(dir_); }
-
-  std::string write(const std::string& name, const std::string& text) {
-    const std::string path = (dir_ / name).string();
-    std::ofstream(path, std::ios::binary) << text;
-    return path;
-  }
-
-  fs::path dir_;
+  MeshIoDouble() : TempDirTest("lipmap_mesh_io_double_") {}
 };
 
 // A coordinate of one of several kinds, most of them not representable as a float: full 53-bit mantissas

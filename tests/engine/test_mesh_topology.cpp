@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "engine/mesh_topology.h"
+#include "tests/support/grid_cells.h"
 
 namespace lipmap {
 namespace {
@@ -25,18 +26,7 @@ struct Faces {
 Faces grid(int w, int h, std::mt19937& rng) {
   Faces m;
   m.vertices = (w + 1) * (h + 1);
-  auto id = [&](int i, int j) { return j * (w + 1) + i; };
-  for (int j = 0; j < h; ++j)
-    for (int i = 0; i < w; ++i) {
-      const int a = id(i, j), b = id(i + 1, j), c = id(i + 1, j + 1), d = id(i, j + 1);
-      if (rng() % 2) {
-        m.faces.push_back({a, b, c});
-        m.faces.push_back({a, c, d});
-      } else {
-        m.faces.push_back({a, b, d});
-        m.faces.push_back({b, c, d});
-      }
-    }
+  m.faces = testgen::grid_triangles(w, h, [&rng](int, int) { return rng() % 2 != 0; });
   return m;
 }
 

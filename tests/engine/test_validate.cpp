@@ -14,6 +14,7 @@
 
 #include <gtest/gtest.h>
 
+#include "tests/support/grid_cells.h"
 #include "tests/support/test_meshes.h"
 
 #include "engine/boundary_polygon.h"
@@ -53,12 +54,8 @@ RawMesh grid(int w, int h) {
   RawMesh mesh;
   for (int j = 0; j < h; ++j)
     for (int i = 0; i < w; ++i) mesh.vertices.push_back({double(i), double(j), 0.0});
-  for (int j = 0; j + 1 < h; ++j)
-    for (int i = 0; i + 1 < w; ++i) {
-      long long a = j * w + i, b = a + 1, c = a + w + 1, d = a + w;
-      mesh.faces.push_back({a, b, c});
-      mesh.faces.push_back({a, c, d});
-    }
+  for (const auto& t : testgen::grid_triangles(w - 1, h - 1, [](int, int) { return true; }))
+    mesh.faces.push_back({t[0], t[1], t[2]});
   return mesh;
 }
 
@@ -313,13 +310,8 @@ TEST(ValidateTestProperty, RandomGridDisksHaveTheirBorderAsLoopWithInteriorOnThe
     raw.vertices.resize(n);
     for (int j = 0; j < h; ++j)
       for (int i = 0; i < w; ++i) raw.vertices[renumber[j * w + i]] = {double(i), double(j), 0.0};
-    for (int j = 0; j + 1 < h; ++j)
-      for (int i = 0; i + 1 < w; ++i) {
-        long long a = renumber[j * w + i], b = renumber[j * w + i + 1];
-        long long c = renumber[(j + 1) * w + i + 1], d = renumber[(j + 1) * w + i];
-        if (uniform(0, 1)) raw.faces.insert(raw.faces.end(), {{a, b, c}, {a, c, d}});
-        else raw.faces.insert(raw.faces.end(), {{a, b, d}, {b, c, d}});
-      }
+    for (const auto& t : testgen::grid_triangles(w - 1, h - 1, [&](int, int) { return uniform(0, 1) != 0; }))
+      raw.faces.push_back({renumber[t[0]], renumber[t[1]], renumber[t[2]]});
     for (auto& f : raw.faces) std::rotate(f.begin(), f.begin() + uniform(0, 2), f.end());
     std::shuffle(raw.faces.begin(), raw.faces.end(), rng);
 

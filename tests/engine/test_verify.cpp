@@ -13,6 +13,7 @@
 #include "engine/error.h"
 #include "engine/validate.h"
 #include "engine/verify.h"
+#include "tests/support/grid_cells.h"
 
 namespace lipmap {
 namespace {
@@ -32,12 +33,8 @@ Case grid_case(int n, std::mt19937& rng) {
   RawMesh raw;
   for (int j = 0; j < n; ++j)
     for (int i = 0; i < n; ++i) raw.vertices.push_back({double(i), double(j), z(rng) / 64.0});
-  auto id = [n](int i, int j) { return static_cast<long long>(j * n + i); };
-  for (int j = 0; j + 1 < n; ++j)
-    for (int i = 0; i + 1 < n; ++i) {
-      raw.faces.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
-      raw.faces.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
-    }
+  for (const auto& t : testgen::grid_triangles(n - 1, n - 1, [](int, int) { return true; }))
+    raw.faces.push_back({t[0], t[1], t[2]});
   Case c;
   c.n = n;
   c.mesh = validate_mesh(raw);

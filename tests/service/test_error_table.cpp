@@ -8,30 +8,21 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
-#include <fstream>
 #include <map>
 #include <regex>
 #include <set>
-#include <sstream>
 #include <string>
 
 #include <nlohmann/json.hpp>
 
 #include "server/codec/gltf_codec.h"
 #include "tests/support/data_dir.h"
+#include "tests/support/read_text.h"
 
 namespace lipmap::codec {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string read_text(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  EXPECT_TRUE(in) << "cannot read " << path;
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 // The codes thrown or printed in the .cpp files of `folder` (and its subfolders): the first argument of the
 // calls that make an error with a code. Each call form is listed with what throws it.

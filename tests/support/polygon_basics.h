@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "grid_cells.h"
 #include "testgen_types.h"
 
 namespace lipmap::testgen {
@@ -90,21 +91,8 @@ inline GridMesh make_grid_mesh(int nx, int ny, const std::function<Pt(int, int)>
   m.image.resize(size_t(nx + 1) * size_t(ny + 1));
   for (int j = 0; j <= ny; ++j)
     for (int i = 0; i <= nx; ++i) m.image[m.id(i, j)] = g(i, j);
-  for (int j = 0; j < ny; ++j)
-    for (int i = 0; i < nx; ++i) {
-      const int a = m.id(i, j), b = m.id(i + 1, j), c = m.id(i + 1, j + 1), d = m.id(i, j + 1);
-      if (rng.chance(0.5)) {
-        m.triangles.push_back({a, b, c});
-        m.triangles.push_back({a, c, d});
-      } else {
-        m.triangles.push_back({a, b, d});
-        m.triangles.push_back({b, c, d});
-      }
-    }
-  for (int i = 0; i < nx; ++i) m.boundary.push_back(m.id(i, 0));
-  for (int j = 0; j < ny; ++j) m.boundary.push_back(m.id(nx, j));
-  for (int i = nx; i > 0; --i) m.boundary.push_back(m.id(i, ny));
-  for (int j = ny; j > 0; --j) m.boundary.push_back(m.id(0, j));
+  m.triangles = grid_triangles(nx, ny, [&rng](int, int) { return rng.chance(0.5); });
+  m.boundary = grid_boundary(nx, ny);
   return m;
 }
 
