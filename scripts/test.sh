@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # The test command (README): installs what is missing (Debian packages via setup.sh, the npm test tools
-# of package.json into ./node_modules), builds everything into build/ (Release, ccache), runs the
-# GoogleTest suite with ctest, then the bats suites (tests/cli, and tests/http when it has tests).
-# Exits non-zero when anything fails; the last line sums up: "tests: N passed, M failed".
+# of package.json into ./node_modules), builds everything into build/ (Release, ccache; with CI=true the
+# project's warnings are errors), runs the GoogleTest suite with ctest, the layout rules
+# (tests/layout/check_layout.sh), then the bats suites (tests/cli, tests/http). Everything it reads is in the
+# repository. Exits non-zero when anything fails; the last line sums up: "tests: N passed, M failed".
 #
 # Environment: LIPMAP_BUILD_DIR (default build), LIPMAP_JOBS (default 2).
 set -euo pipefail
