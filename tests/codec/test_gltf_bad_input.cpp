@@ -116,6 +116,13 @@ std::vector<std::string> bases() {
   return out;
 }
 
+// A refusal the report names: a glTF code answered 400 (the bytes are not a valid glTF 2.0 document).
+void expect_malformed_gltf(const Outcome& o, const std::string& what) {
+  if (!o.refused) return;  // read_refused said so
+  EXPECT_EQ(o.code.rfind("gltf_", 0), 0u) << what << ": " << o.code;
+  EXPECT_EQ(codec::error_info(o.code).status, 400) << what << ": " << o.code << ": " << o.message;
+}
+
 const char* form(const std::string& bytes) { return bytes.compare(0, 4, "glTF") == 0 ? "glb" : "gltf"; }
 
 // Values no integer field of these documents may take: negative, beyond any index or size in them, beyond
@@ -157,7 +164,8 @@ TEST(GltfBadInput, ZeroAndNegativeBufferByteLengthAreRefused) {
     for (json v : {json(0), json(-1), json(-4096)}) {
       json doc = gltftest::document_json(base);
       doc["buffers"][0]["byteLength"] = v;
-      read_refused(rebuild(base, doc), std::string(form(base)) + " buffers[0].byteLength " + v.dump());
+      const std::string what = std::string(form(base)) + " buffers[0].byteLength " + v.dump();
+      expect_malformed_gltf(read_refused(rebuild(base, doc), what), what);
     }
 }
 
@@ -169,17 +177,17 @@ TEST(GltfBadInput, SpecViolationsNamedInTheReportAreRefused) {
     {
       json doc = doc0;
       doc["accessors"][pos]["byteOffset"] = -4;
-      read_refused(rebuild(base, doc), f + " POSITION byteOffset -4");
+      expect_malformed_gltf(read_refused(rebuild(base, doc), f + " POSITION byteOffset -4"), f + " POSITION byteOffset -4");
     }
     {
       json doc = doc0;
       doc["accessors"][pos]["bufferView"] = -7;
-      read_refused(rebuild(base, doc), f + " POSITION bufferView -7");
+      expect_malformed_gltf(read_refused(rebuild(base, doc), f + " POSITION bufferView -7"), f + " POSITION bufferView -7");
     }
     {
       json doc = doc0;
       doc["meshes"][0]["primitives"][0]["mode"] = -5;
-      read_refused(rebuild(base, doc), f + " mode -5");
+      expect_malformed_gltf(read_refused(rebuild(base, doc), f + " mode -5"), f + " mode -5");
     }
     {
       json doc = doc0;
@@ -190,12 +198,18 @@ TEST(GltfBadInput, SpecViolationsNamedInTheReportAreRefused) {
       // Used but not required: a loader may ignore it.
       doc.erase("extensionsRequired");
       EXPECT_NO_THROW(Asset::read(rebuild(base, doc))) << f;
+      // Required extensions that do not change the meaning of the geometry are read.
+      doc["extensionsUsed"] = {"KHR_materials_emissive_strength", "KHR_mesh_quantization"};
+      doc["extensionsRequired"] = {"KHR_materials_emissive_strength", "KHR_mesh_quantization"};
+      EXPECT_NO_THROW(Asset::read(rebuild(base, doc))) << f;
+      doc["extensionsRequired"] = "KHR_mesh_quantization";  // not an array
+      expect_malformed_gltf(read_refused(rebuild(base, doc), f + " extensionsRequired not an array"), f);
     }
   }
   // A NUL after the JSON of a .gltf is not JSON (in a GLB, the JSON chunk is padded with spaces).
   const std::string text = bases()[1];
   for (const std::string& tail : {std::string(1, '\0'), std::string("\n\0", 2), std::string("\0\0\0\0", 4)})
-    read_refused(text + tail, "a .gltf followed by " + std::to_string(tail.size()) + " byte(s) ending in NUL");
+    expect_malformed_gltf(read_refused(text + tail, "a .gltf followed by " + std::to_string(tail.size()) + " byte(s) ending in NUL"), "NUL");
   std::string nul_inside = text;
   nul_inside.insert(1, 1, '\0');
   read_refused(nul_inside, "a .gltf with a NUL after its '{'");
