@@ -162,6 +162,9 @@ public:
   struct Impl;
 
 private:
+  // read() without its last guard (every exception other than InputError becomes a GltfError).
+  static Asset read_document(std::string_view bytes, const Selection& selection, std::optional<Format> expected);
+
   std::shared_ptr<const Impl> impl_;
 };
 

@@ -7,6 +7,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -71,11 +72,21 @@ nlohmann::json to_json(const tinygltf::Value& v);
 tinygltf::Value to_value(const nlohmann::json& j);
 
 // ---- before tinygltf (gltf_format.cpp) ----
-// The GLB's JSON chunk; `length` is set to the GLB length the header declares (bytes past it are ignored).
-std::string_view check_glb(std::string_view bytes, std::size_t& length);
+// An accessor without a bufferView (all zeros, or sparse) has no bytes to bound its count: it may have at
+// most this many elements, a little above the service's default --max-vertices (2,000,000).
+inline constexpr std::uint64_t kMaxUnbackedElements = std::uint64_t{1} << 21;
+
+// The GLB's JSON chunk; `length` is set to the GLB length the header declares (bytes past it are ignored),
+// `bin_chunk` to the BIN chunk's length (nullopt without one).
+std::string_view check_glb(std::string_view bytes, std::size_t& length, std::optional<std::size_t>& bin_chunk);
 // The glTF JSON checked for what tinygltf would accept silently or read from outside (version, compressed
-// geometry, external buffers).
-nlohmann::json parse_document(std::string_view text);
+// geometry, external buffers, required extensions), and the integer fields of buffers, bufferViews,
+// accessors and mesh primitives against the schema's ranges and the bytes present (bin_chunk: see
+// check_glb; glb: the document is a GLB's JSON chunk).
+nlohmann::json parse_document(std::string_view text, std::optional<std::size_t> bin_chunk, bool glb);
+// Every accessor (and sparse accessor) of a document parse_document took against the bytes of its
+// bufferView.
+void check_accessor_bytes(const nlohmann::json& doc, std::optional<std::size_t> bin_chunk, bool glb);
 
 }  // namespace internal
 }  // namespace lipmap::gltf

@@ -26,6 +26,21 @@ namespace {
 
 struct Read {
   const tinygltf::Model& model;
+  // Values the primitive's accessors may still decode to: a few per byte of input, and a slack for
+  // sparse or zero accessors (which share one view, or none, however many attributes and targets use them).
+  std::size_t budget;
+
+  static std::size_t budget_for(std::size_t input_bytes) { return 4 * input_bytes + (std::size_t{1} << 22); }
+
+  // Takes count * comps values from the budget before anything is sized from them.
+  void spend(std::size_t count, int comps, const std::string& name, const std::string& aptr) {
+    const std::size_t want = count * static_cast<std::size_t>(comps);  // count <= 2^53, comps <= 16: no overflow
+    if (want > budget)
+      fail("gltf_accessor_mismatch", name + " has " + std::to_string(count) + " elements: the primitive's accessors would decode to more than " +
+                                         std::to_string(budget_for(0)) + " values plus 4 per byte of the document",
+           aptr);
+    budget -= want;
+  }
 
   const unsigned char* view_bytes(int view_index, std::size_t offset, std::size_t need, const std::string& owner,
                                   const std::string& owner_ptr, std::size_t* stride_out = nullptr) const {
@@ -51,7 +66,7 @@ struct Read {
   }
 
   // Values of accessor `index` as doubles, `components` per element. `what` names it in messages.
-  Attribute accessor(int index, const std::string& what) const {
+  Attribute accessor(int index, const std::string& what) {
     const std::string aptr = ptr("accessors", index);
     if (index < 0 || static_cast<std::size_t>(index) >= model.accessors.size())
       fail("gltf_invalid", what + " refers to accessor " + std::to_string(index) + ", which does not exist");
@@ -81,6 +96,7 @@ struct Read {
                                              std::to_string(view_length) + " bytes) holds",
              aptr);
       const std::size_t need = stride * (count - 1) + elem;
+      spend(count, comps, name, aptr);
       const unsigned char* base = view_bytes(a.bufferView, a.byteOffset, need, name, aptr);
       if (a.byteOffset % static_cast<std::size_t>(cs) != 0)
         fail("gltf_accessor_mismatch", name + ": byteOffset " + std::to_string(a.byteOffset) + " is not a multiple of its component size", aptr);
@@ -90,8 +106,11 @@ struct Read {
           out.values[i * comps + c] =
               read_component(base + i * stride + component_offset(a.type, a.componentType, c), a.componentType, a.normalized);
     } else {
-      if (count == 0 || count > (std::size_t{1} << 28))
-        fail("gltf_accessor_mismatch", name + " has no bufferView and " + std::to_string(count) + " elements", aptr);
+      if (count == 0 || count > kMaxUnbackedElements)
+        fail("gltf_accessor_mismatch", name + " has no bufferView and " + std::to_string(count) + " elements (at most " +
+                                           std::to_string(kMaxUnbackedElements) + " without one)",
+             aptr);
+      spend(count, comps, name, aptr);
       out.values.assign(count * static_cast<std::size_t>(comps), 0.0);
     }
     if (a.sparse.isSparse) {
@@ -180,6 +199,20 @@ struct PositionKeyHash {
 // ---- reading ------------------------------------------------------------------------------------------
 
 Asset Asset::read(std::string_view bytes, const Selection& selection, std::optional<Format> expected) {
+  // Only GltfError and InputError leave the reader, whatever the bytes: anything else thrown on the way
+  // (tinygltf's std::out_of_range on an empty BIN buffer, say) is a document the reader cannot take.
+  try {
+    return read_document(bytes, selection, expected);
+  } catch (const InputError&) {
+    throw;
+  } catch (const std::bad_alloc&) {
+    fail("gltf_invalid", "the document needs more memory than there is to read it");
+  } catch (const std::exception& e) {
+    fail("gltf_invalid", std::string("cannot read the document: ") + e.what());
+  }
+}
+
+Asset Asset::read_document(std::string_view bytes, const Selection& selection, std::optional<Format> expected) {
   auto impl = std::make_shared<Impl>();
   Impl& m = *impl;
   m.selection = selection;
@@ -194,21 +227,35 @@ Asset Asset::read(std::string_view bytes, const Selection& selection, std::optio
   m.format = *format;
 
   std::size_t glb_length = bytes.size();
-  const std::string_view json_text = m.format == Format::glb ? check_glb(bytes, glb_length) : bytes;
-  parse_document(json_text);
+  std::optional<std::size_t> bin_chunk;
+  const std::string_view json_text = m.format == Format::glb ? check_glb(bytes, glb_length, bin_chunk) : bytes;
+  // JSON has no NUL outside strings and none unescaped inside them; a .gltf with one (a C string's
+  // terminator after the text, say) is not JSON. (A GLB's JSON chunk is left to the JSON parser.)
+  if (m.format == Format::gltf)
+    if (const std::size_t nul = json_text.find('\0'); nul != std::string_view::npos)
+      fail("gltf_invalid_json", "the glTF JSON has a NUL byte at offset " + std::to_string(nul) + ": not JSON");
+  const json doc = parse_document(json_text, bin_chunk, m.format == Format::glb);
 
   tinygltf::TinyGLTF loader;
   loader.SetFsCallbacks(no_file_system());
   loader.SetImageLoader(&keep_image_bytes, nullptr);
   std::string err, warn;
-  bool ok;
+  bool ok = false;
   if (glb_length > std::numeric_limits<unsigned int>::max()) fail("gltf_invalid", "glTF larger than 4 GiB");
-  if (m.format == Format::glb)
-    ok = loader.LoadBinaryFromMemory(&m.model, &err, &warn, reinterpret_cast<const unsigned char*>(bytes.data()),
-                                     static_cast<unsigned int>(glb_length), "", tinygltf::REQUIRE_VERSION);
-  else
-    ok = loader.LoadASCIIFromString(&m.model, &err, &warn, bytes.data(), static_cast<unsigned int>(bytes.size()), "",
-                                    tinygltf::REQUIRE_VERSION);
+  try {
+    if (m.format == Format::glb)
+      ok = loader.LoadBinaryFromMemory(&m.model, &err, &warn, reinterpret_cast<const unsigned char*>(bytes.data()),
+                                       static_cast<unsigned int>(glb_length), "", tinygltf::REQUIRE_VERSION);
+    else
+      ok = loader.LoadASCIIFromString(&m.model, &err, &warn, bytes.data(), static_cast<unsigned int>(bytes.size()), "",
+                                      tinygltf::REQUIRE_VERSION);
+  } catch (const std::bad_alloc&) {
+    throw;
+  } catch (const std::exception& e) {
+    // tinygltf throws on some inputs it does not check (a zero-length BIN buffer: std::out_of_range).
+    err = e.what();
+    ok = false;
+  }
   if (!ok) {
     std::string e = trim(err.empty() ? warn : err);
     std::replace(e.begin(), e.end(), '\n', ' ');
@@ -241,7 +288,7 @@ Asset Asset::read(std::string_view bytes, const Selection& selection, std::optio
   const auto pos_it = prim.attributes.find("POSITION");
   if (pos_it == prim.attributes.end()) fail("gltf_no_position", where + " has no POSITION attribute", pptr + "/attributes");
 
-  Read read{m.model};
+  Read read{m.model, Read::budget_for(bytes.size())};
   std::size_t nvert = 0;
   for (const auto& [name, index] : prim.attributes) {
     if (index < 0 || static_cast<std::size_t>(index) >= m.model.accessors.size())
@@ -249,6 +296,7 @@ Asset Asset::read(std::string_view bytes, const Selection& selection, std::optio
            pptr + "/attributes/" + codec::escape_pointer_token(name));
     check_semantic(name, m.model.accessors[index], index, where);
   }
+  check_accessor_bytes(doc, bin_chunk, m.format == Format::glb);
   {
     Attribute p = read.accessor(pos_it->second, where + " POSITION");
     p.name = "POSITION";
