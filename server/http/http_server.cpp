@@ -82,8 +82,8 @@ struct HttpServer::Impl {
       listen_socket = sock;
     });
     using Handled = httplib::Server::HandlerResponse;
-    http.set_pre_routing_handler([](const httplib::Request& req, httplib::Response& res) {
-      return pre_routing(req, res) ? Handled::Handled : Handled::Unhandled;
+    http.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+      return pre_routing(service, req, res) ? Handled::Handled : Handled::Unhandled;
     });
     http.set_error_handler(httplib::Server::HandlerWithResponse(
         [this](const httplib::Request& req, httplib::Response& res) {
@@ -188,13 +188,15 @@ bool HttpServer::shutdown() {
     return true;
   }
   const auto t0 = Clock::now();
-  service.draining = true;
   service.event(spdlog::level::info, {{"event", "draining"},
                                       {"grace_seconds", service.config.grace_seconds},
                                       {"queued", service.pool.queue_depth()},
                                       {"running", service.pool.busy()}}, true);
   // 1. No new connections. Requests already being read still run (and are refused new work with 503).
+  // Draining starts after the stop: a request refused for it, before its body was read, is then the last
+  // on its connection (cpp-httplib ends a connection once the listener is stopped).
   s.http.stop();
+  service.draining = true;
   // 2. Asynchronous jobs: once the listener is closed nobody can fetch their results, so they end now.
   cancel_unfinished_jobs(service, CancelReason::shutdown);
   // 3. Synchronous requests in flight: their clients are waiting; they get the grace period.

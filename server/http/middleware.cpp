@@ -3,6 +3,9 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdint>
+#include <memory>
+#include <optional>
 
 #include "server/codec/error_table.h"
 #include "server/http/job_store.h"
@@ -71,14 +74,109 @@ void run_handler(Service& service, const Operation& operation, const httplib::Re
   }
 }
 
-bool pre_routing(const httplib::Request& req, httplib::Response& res) {
+namespace {
+
+// cpp-httplib 0.11 keeps a connection open after an answer even when the answer says "Connection: close",
+// and reads whatever follows as the next request: after an answer sent before the body was read, the
+// body itself. Its only way to close is a failed write, so the body goes out through a content provider
+// that writes all of it and then reports failure: the client gets the whole answer, then the close.
+void close_after_answer(httplib::Response& res) {
+  bool has_close = false;
+  for (const auto& [k, v] : res.headers) has_close |= lower(k) == "connection";
+  if (!has_close) res.set_header("Connection", "close");
+  if (res.body.empty()) return;
+  auto body = std::make_shared<const std::string>(std::move(res.body));
+  res.body.clear();
+  const std::string type = res.get_header_value("Content-Type");
+  res.headers.erase("Content-Type");
+  res.set_content_provider(body->size(), type, [body](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
+    sink.write(body->data() + offset, std::min(length, body->size() - offset));
+    return false;
+  });
+}
+
+// A Content-Length value: digits only, no sign, no overflow.
+std::optional<std::uint64_t> parse_length(const std::string& s) {
+  if (s.empty() || s.size() > 19) return std::nullopt;  // 19 digits always fit in 64 bits
+  std::uint64_t n = 0;
+  for (char c : s) {
+    if (c < '0' || c > '9') return std::nullopt;
+    n = n * 10 + static_cast<std::uint64_t>(c - '0');
+  }
+  return n;
+}
+
+std::string quoted(const std::string& s) {
+  return ordered_json(s.size() > 64 ? s.substr(0, 64) + "..." : s)
+      .dump(-1, ' ', false, ordered_json::error_handler_t::replace);
+}
+
+// The framing headers cpp-httplib would accept and misread: every Content-Length must be one valid number
+// (proxies disagree on which of two differing ones counts), and no transfer coding but chunked.
+std::optional<Answer> framing_problem(const Service& service, const httplib::Request& req, std::uint64_t& length) {
+  std::optional<std::uint64_t> first;
+  const auto [b, e] = req.headers.equal_range("Content-Length");
+  for (auto it = b; it != e; ++it) {
+    const auto n = parse_length(it->second);
+    if (!n) return problem_answer("bad_request", "Content-Length " + quoted(it->second) + " is not a valid length");
+    if (first && *first != *n)
+      return problem_answer("bad_request", "the request has Content-Length headers that disagree (" +
+                                               std::to_string(*first) + " and " + std::to_string(*n) + ")");
+    first = n;
+  }
+  length = first.value_or(0);
+  if (req.has_header("Transfer-Encoding")) {
+    const std::string te = lower(req.get_header_value("Transfer-Encoding"));
+    if (te.find("chunked") == std::string::npos)
+      return problem_answer("bad_request", "Transfer-Encoding " + quoted(req.get_header_value("Transfer-Encoding")) +
+                                               " is not supported; send the body with a Content-Length");
+  }
+  if (length > service.config.max_body_bytes) {
+    Answer a = problem_answer("payload_too_large", "the body is larger than this service's limit of " +
+                                                       std::to_string(service.config.max_body_bytes) + " bytes");
+    (*a.problem)["limit_bytes"] = service.config.max_body_bytes;
+    return a;
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
+bool pre_routing(Service& service, const httplib::Request& req, httplib::Response& res) {
   begin_request(req, res);
+  // No answer is ever partial: Range is ignored. cpp-httplib parsed it into the request (a local of its
+  // own, so clearing it is sound), and would cut any answer, problems included, to it.
+  const_cast<httplib::Request&>(req).ranges.clear();
+  std::uint64_t length = 0;
+  if (auto a = framing_problem(service, req, length)) {
+    send(res, std::move(*a));
+    close_after_answer(res);
+    return true;
+  }
   // cpp-httplib 0.11 waits for the read timeout on a POST without Content-Length, and reads chunked
   // bodies without its size limit: answer both before any body is read.
   const bool body_method = req.method == "POST" || req.method == "PUT" || req.method == "PATCH";
-  const bool chunked = lower(req.get_header_value("Transfer-Encoding")).find("chunked") != std::string::npos;
-  if (!body_method || (!chunked && req.has_header("Content-Length"))) return false;
+  const bool chunked = req.has_header("Transfer-Encoding");  // framing_problem let only chunked through
   const Route* route = route_of(req.path);
+  if (body_method && !chunked && req.has_header("Content-Length")) {
+    // Work the service cannot take now is refused before its body is read, let alone parsed: a refusal
+    // must stay cheap under overload.
+    const Operation* op = nullptr;
+    if (route)
+      for (const Operation& o : route->operations)
+        if (o.input != InputKind::none && req.method == to_string(o.method)) op = &o;
+    if (!op) return false;
+    if (auto a = service.refuse_when_draining()) {
+      // Draining comes after the listener stopped, and then cpp-httplib ends the connection after this answer.
+      send(res, std::move(*a));
+      return true;
+    }
+    if (!service.pool.full()) return false;
+    send(res, service.submit_refused(WorkerPool::Submit::queue_full));
+    if (length > 0) close_after_answer(res);
+    return true;
+  }
+  if (!body_method && !chunked) return false;
   Answer a;
   if (!route) {
     a = problem_answer("not_found", "no route for " + req.method + " " + req.path.substr(0, 200));
@@ -89,14 +187,17 @@ bool pre_routing(const httplib::Request& req, httplib::Response& res) {
                                               ? "chunked request bodies are not accepted; send the body with a Content-Length"
                                               : "the request has no Content-Length; send the body with one");
   }
-  // A chunked body that was not read cannot be followed by another request on this connection.
-  if (chunked) a.headers.emplace_back("Connection", "close");
   send(res, std::move(a));
+  // A chunked body that was not read cannot be followed by another request on this connection.
+  if (chunked) close_after_answer(res);
   return true;
 }
 
 bool error_answer(const Service& service, const httplib::Request& req, httplib::Response& res) {
   if (!tl_request.active) begin_request(req, res);
+  // A Range header cpp-httplib could not parse (its 416) would otherwise cut this problem to the ranges
+  // it had parsed before the bad one; no answer is partial.
+  const_cast<httplib::Request&>(req).ranges.clear();
   if (!res.has_header("X-Request-Id")) res.set_header("X-Request-Id", tl_request.id);
   if (!res.body.empty() || res.content_length_ > 0) return false;
   Answer a;

@@ -41,9 +41,11 @@ void send(httplib::Response& res, Answer answer);
 // answered as such.
 void run_handler(Service& service, const Operation& operation, const httplib::Request& req, httplib::Response& res);
 
-// cpp-httplib's hooks. pre_routing answers a body method without Content-Length (or chunked) before its
-// body is read; true when it answered.
-bool pre_routing(const httplib::Request& req, httplib::Response& res);
+// cpp-httplib's hooks. pre_routing runs before any body is read: it refuses bad framing (invalid or
+// disagreeing Content-Length, a transfer coding other than chunked, a body over the limit), a body method
+// without Content-Length (or chunked), and work the service cannot take now (draining, full queue); it
+// makes Range ignored. True when it answered.
+bool pre_routing(Service& service, const httplib::Request& req, httplib::Response& res);
 // Every answer >= 400 passes here; those without a body are cpp-httplib's own and get their problem here.
 // True when it wrote the answer.
 bool error_answer(const Service& service, const httplib::Request& req, httplib::Response& res);

@@ -17,16 +17,25 @@ WorkerPool::Submit WorkerPool::submit(Task task, std::uint64_t* ticket) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     if (closed_) return Submit::closed;
-    // Idle workers take queued tasks at once: the queue may hold `capacity_` tasks beyond those, so that
-    // "waiting for a worker" never exceeds the capacity, even before an idle worker has woken up.
-    const std::size_t idle = threads_.size() > running_ ? threads_.size() - running_ : 0;
-    if (queue_.size() + 1 > capacity_ + idle) return Submit::queue_full;
+    if (full_locked()) return Submit::queue_full;
     const std::uint64_t t = next_ticket_++;
     queue_.emplace_back(t, std::move(task));
     if (ticket) *ticket = t;
   }
   work_cv_.notify_one();
   return Submit::accepted;
+}
+
+bool WorkerPool::full_locked() const {
+  // Idle workers take queued tasks at once: the queue may hold `capacity_` tasks beyond those, so that
+  // "waiting for a worker" never exceeds the capacity, even before an idle worker has woken up.
+  const std::size_t idle = threads_.size() > running_ ? threads_.size() - running_ : 0;
+  return queue_.size() + 1 > capacity_ + idle;
+}
+
+bool WorkerPool::full() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return !closed_ && full_locked();
 }
 
 void WorkerPool::run() {

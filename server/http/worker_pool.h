@@ -45,6 +45,8 @@ public:
   std::size_t workers() const { return threads_.size(); }
   std::size_t capacity() const { return capacity_; }
   std::size_t queue_depth() const;
+  // True when submit() would answer queue_full now: lets the HTTP layer refuse before reading a body.
+  bool full() const;
   std::size_t busy() const;
   // Exponential moving average of task run times, seconds (0 until a task finished).
   double mean_task_seconds() const;
@@ -54,6 +56,7 @@ public:
 
 private:
   void run();
+  bool full_locked() const;  // with mutex_ held
 
   const std::size_t capacity_;
   mutable std::mutex mutex_;
