@@ -63,8 +63,8 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
 
   struct Validated { DiskMesh mesh; BoundaryMap boundary; };
   Validated input = run_stage(Stage::validate, time.validate, cancel, progress, [&] {
-    DiskMesh mesh = validate_mesh(raw_mesh);
-    BoundaryMap boundary = validate_boundary(mesh, raw_boundary);
+    DiskMesh mesh = validate_mesh(raw_mesh, cancel);
+    BoundaryMap boundary = validate_boundary(mesh, raw_boundary, cancel);
     return Validated{std::move(mesh), std::move(boundary)};
   });
   out.boundary_loop = input.boundary.loop;
