@@ -2,6 +2,7 @@
 #include "engine/pipeline.h"
 
 #include <chrono>
+#include <algorithm>
 #include <cmath>
 #include <numeric>
 
@@ -29,6 +30,64 @@ auto run_stage(Stage stage, double& slot, const CancelToken* cancel, const Progr
 void check_options(const ParametrizeOptions& options) {
   if (!(std::isfinite(options.target_density) && options.target_density > 0 && options.target_density <= 100))
     throw InputError("invalid_option", "options.target_density must be a number in (0, 100]", "option");
+}
+
+// ---- scale normalization --------------------------------------------------------------------------
+// The map is invariant under a uniform scale of the 3D mesh, and scales with a uniform scale of the
+// boundary polygon. Coordinates near the ends of the double range (1e-300, 1e300) break the stages' float
+// steps (squared lengths overflow or underflow, grid sizes become huge), so the stages run on copies scaled
+// by a power of two that brings the largest |coordinate| into [0.5, 1). Scaling by 2^k is exact for normal
+// doubles, so exact predicates see the same signs, and the answer goes back to the caller's scale exactly.
+
+// k with max |coordinate| * 2^-k in [0.5, 1), or 0 when max |coordinate| is within 2^+-kLeaveAlone: the
+// stages' absolute constants make their floating point not exactly scale-equivariant, and inputs at
+// ordinary scales keep their answers unchanged, bit for bit.
+constexpr int kLeaveAlone = 32;
+int scale_exponent(double max_abs) {
+  if (!(max_abs > 0)) return 0;
+  int k = 0;
+  std::frexp(max_abs, &k);
+  return std::abs(k) <= kLeaveAlone ? 0 : k;
+}
+
+int mesh_exponent(const std::vector<Point3>& vertices) {
+  double m = 0;
+  for (const Point3& p : vertices) m = std::max({m, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+  return scale_exponent(m);
+}
+
+int polygon_exponent(const std::vector<Point2>& vertices) {
+  double m = 0;
+  for (const Point2& p : vertices) m = std::max({m, std::abs(p.x), std::abs(p.y)});
+  return scale_exponent(m);
+}
+
+Point2 scaled(const Point2& p, int k) { return {std::ldexp(p.x, k), std::ldexp(p.y, k)}; }
+Point3 scaled(const Point3& p, int k) { return {std::ldexp(p.x, k), std::ldexp(p.y, k), std::ldexp(p.z, k)}; }
+
+// The refined map back at the caller's scale: original vertices are the caller's, inserted ones are
+// a + t (b - a) on the caller's vertices (the contract's formula), uv is scaled back and the boundary pinned
+// to the caller's positions bit for bit. A uv that does not survive the round trip (it would be subnormal
+// at the caller's scale) cannot be served exactly: refused.
+void to_caller_scale(RefinedMap& map, const DiskMesh& caller_mesh, const std::vector<int>& loop,
+                     const BoundaryPolygon& caller_polygon, int polygon_k) {
+  const std::size_t nv = caller_mesh.vertices.size();
+  for (std::size_t v = 0; v < nv; ++v) map.vertices[v] = caller_mesh.vertices[v];
+  for (std::size_t i = 0; i < map.inserted.size(); ++i) {
+    const InsertedVertex& iv = map.inserted[i];
+    const Point3 &pa = caller_mesh.vertices[iv.a], &pb = caller_mesh.vertices[iv.b];
+    map.vertices[nv + i] = {pa.x + iv.t * (pb.x - pa.x), pa.y + iv.t * (pb.y - pa.y), pa.z + iv.t * (pb.z - pa.z)};
+  }
+  for (std::size_t v = 0; v < map.uv.size(); ++v) {
+    const Point2 back = scaled(map.uv[v], polygon_k);
+    if (!(scaled(back, -polygon_k) == map.uv[v]))
+      throw InputError("coordinate_out_of_range",
+                       "the boundary positions are so small (largest |coordinate| about 2^" + std::to_string(polygon_k) +
+                           ") that the map's interior uv would underflow to subnormal doubles; scale the polygon up",
+                       "boundary");
+    map.uv[v] = back;
+  }
+  for (std::size_t k = 0; k < loop.size(); ++k) map.uv[loop[k]] = caller_polygon.vertices[k];
 }
 
 void require_bijective(const DiskMap& map, const char* which) {
@@ -63,22 +122,30 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
 
   struct Validated { DiskMesh mesh; BoundaryMap boundary; };
   Validated input = run_stage(Stage::validate, time.validate, cancel, progress, [&] {
-    DiskMesh mesh = validate_mesh(raw_mesh);
-    BoundaryMap boundary = validate_boundary(mesh, raw_boundary);
+    DiskMesh mesh = validate_mesh(raw_mesh, cancel);
+    BoundaryMap boundary = validate_boundary(mesh, raw_boundary, cancel);
     return Validated{std::move(mesh), std::move(boundary)};
   });
   out.boundary_loop = input.boundary.loop;
   out.polygon = input.boundary.polygon;
 
+  // The stages work at a normalized scale (see scale_exponent); out keeps the caller's values.
+  const int mesh_k = mesh_exponent(input.mesh.vertices);
+  const int polygon_k = polygon_exponent(out.polygon.vertices);
+  DiskMesh work_mesh = input.mesh;
+  for (Point3& p : work_mesh.vertices) p = scaled(p, -mesh_k);
+  BoundaryPolygon work_polygon = out.polygon;
+  for (Point2& p : work_polygon.vertices) p = scaled(p, -polygon_k);
+
   out.classification = run_stage(Stage::classify, time.classify, cancel, progress,
-                                 [&] { return classify(out.polygon, cancel); });
+                                 [&] { return classify(work_polygon, cancel); });
   if (out.classification.verdict == Verdict::not_self_overlapping) throw NotSelfOverlapping(out.classification);
 
   const TargetMesh target = run_stage(Stage::target_mesh, time.target_mesh, cancel, progress, [&] {
     TargetMeshOptions mesher;
     mesher.density = options.target_density;
     mesher.source_triangles = static_cast<int>(input.mesh.faces.size());
-    return build_target_mesh(out.polygon, out.classification.triangulation, mesher, cancel);
+    return build_target_mesh(work_polygon, out.classification.triangulation, mesher, cancel);
   });
   out.target_mesh = {static_cast<int>(target.vertices.size()), static_cast<int>(target.faces.size()), target.pieces,
                      target.min_angle_deg};
@@ -86,11 +153,11 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
   struct DiskMaps { DiskMap source, target; };
   const DiskMaps disk = run_stage(Stage::intermediate_maps, time.intermediate_maps, cancel, progress, [&] {
     DiskMaps maps;
-    maps.source = map_to_disk({&input.mesh.vertices, &input.mesh.faces, &input.boundary.loop}, options.method, cancel);
+    maps.source = map_to_disk({&work_mesh.vertices, &work_mesh.faces, &input.boundary.loop}, options.method, cancel);
     require_bijective(maps.source, "source mesh");
     std::vector<Point3> planar(target.vertices.size());
     for (std::size_t v = 0; v < planar.size(); ++v) planar[v] = {target.vertices[v].x, target.vertices[v].y, 0};
-    std::vector<int> target_loop(out.polygon.vertices.size());
+    std::vector<int> target_loop(work_polygon.vertices.size());
     std::iota(target_loop.begin(), target_loop.end(), 0);
     maps.target = map_to_disk({&planar, &target.faces, &target_loop}, options.method, cancel);
     require_bijective(maps.target, "target mesh");
@@ -102,17 +169,21 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
   // Relocation moves tangled vertices' disk points (h_s becomes h_s'), so refine works on this copy.
   std::vector<Point2> source_disk = disk.source.uv;
   const Composition composition = run_stage(Stage::compose, time.compose, cancel, progress, [&] {
-    Composition c = compose(input.mesh, input.boundary.loop, source_disk, target, disk.target.uv, cancel);
-    out.relocation = relocate_tangled_vertices(input.mesh, input.boundary.loop, source_disk, c, target, cancel);
+    Composition c = compose(work_mesh, input.boundary.loop, source_disk, target, disk.target.uv, cancel);
+    out.relocation = relocate_tangled_vertices(work_mesh, input.boundary.loop, source_disk, c, target, cancel);
     return c;
   });
 
   out.map = run_stage(Stage::refine, time.refine, cancel, progress, [&] {
-    return refine(input.mesh, input.boundary.loop, out.classification.rotation_indices, source_disk, target,
+    return refine(work_mesh, input.boundary.loop, out.classification.rotation_indices, source_disk, target,
                   disk.target.uv, composition, options.refine, cancel);
   });
   // Reported as the paper's "flipped before refinement": the composed map's flips, before relocation.
   out.map.flipped_before_refinement = out.relocation.flipped_before;
+  // Quality is scale-invariant: measured at the working scale, where areas neither overflow nor underflow.
+  std::vector<Point3> work_vertices = out.map.vertices;
+  std::vector<Point2> work_uv = out.map.uv;
+  to_caller_scale(out.map, input.mesh, input.boundary.loop, out.polygon, polygon_k);
   out.flipped = count_non_positive(out.map.uv, out.map.faces);
 
   if (options.refine) {
@@ -121,7 +192,7 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
     });
   }
   out.distortion = run_stage(Stage::quality, time.quality, cancel, progress,
-                             [&] { return conformal_distortion(out.map.vertices, out.map.faces, out.map.uv); });
+                             [&] { return conformal_distortion(work_vertices, out.map.faces, work_uv); });
   time.total = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
   return out;
 }

@@ -531,7 +531,9 @@ private:
   // and give the triangulation more vertices to connect across. Inserted points stay on original edges.
   void subdivide_edge(int e) {
     if (edge_faces_[e][1] < 0) return;  // never on the boundary
-    const auto [a, b] = edge_vertices_[e];
+    // Plain names, not a structured binding: the lambda below captures a, which C++17 does not allow for
+    // a binding (GCC accepts it, Clang refuses).
+    const int a = edge_vertices_[e][0], b = edge_vertices_[e][1];
     const Point2 &A = source_disk_[a], &B = source_disk_[b];
     std::vector<EdgePoint> finer;
     double last = 0;

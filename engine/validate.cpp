@@ -12,6 +12,7 @@
 #include <string>
 #include <utility>
 
+#include "engine/cancel.h"
 #include "engine/detail/exact_predicates.h"
 #include "engine/error.h"
 
@@ -24,6 +25,12 @@ namespace {
 }
 
 std::string s(long long value) { return std::to_string(value); }
+
+// Every pass over the input checks the token now and then (at i = 0 too, so an expired token stops at once):
+// a request's deadline must free the worker whatever the input's size.
+inline void poll(const CancelToken* cancel, size_t i) {
+  if ((i & 0x3fff) == 0) check_cancel(cancel);
+}
 
 std::string format_point(const Point3& p) {
   std::ostringstream out;
@@ -95,8 +102,10 @@ void check_all_referenced(size_t n_vertices, const std::vector<Triangle>& faces)
   }
 }
 
-void check_no_degenerate_face(const std::vector<Point3>& vertices, const std::vector<Triangle>& faces) {
+void check_no_degenerate_face(const std::vector<Point3>& vertices, const std::vector<Triangle>& faces,
+                              const CancelToken* cancel) {
   for (size_t f = 0; f < faces.size(); ++f) {
+    poll(cancel, f);
     const Triangle& t = faces[f];
     // Exact predicate: a thin but valid triangle must never be mistaken for a flat one, and vice versa.
     if (!detail::collinear(vertices[t[0]], vertices[t[1]], vertices[t[2]])) continue;
@@ -110,21 +119,27 @@ void check_no_degenerate_face(const std::vector<Point3>& vertices, const std::ve
   }
 }
 
-void check_no_duplicate_face(const std::vector<Triangle>& faces) {
+// O(F log F): one sort, then one pass over runs of equal vertex sets (a run of k copies costs k, not k^2).
+void check_no_duplicate_face(const std::vector<Triangle>& faces, const CancelToken* cancel) {
   // Sort (vertex set, face) pairs: equal sets become neighbours and the earliest face of a set comes first.
   std::vector<std::pair<Triangle, int>> keyed(faces.size());
   for (size_t f = 0; f < faces.size(); ++f) {
+    poll(cancel, f);
     Triangle key = faces[f];
     std::sort(key.begin(), key.end());
     keyed[f] = {key, static_cast<int>(f)};
   }
   std::sort(keyed.begin(), keyed.end());
+  check_cancel(cancel);
   int worst = -1, original = -1;
+  size_t run_start = 0;  // first entry of the current run of equal vertex sets: its earliest face
   for (size_t i = 1; i < keyed.size(); ++i) {
-    if (keyed[i].first != keyed[i - 1].first) continue;
-    size_t first = i - 1;
-    while (first > 0 && keyed[first - 1].first == keyed[i].first) --first;
-    if (worst < 0 || keyed[i].second < worst) worst = keyed[i].second, original = keyed[first].second;
+    poll(cancel, i);
+    if (keyed[i].first != keyed[i - 1].first) {
+      run_start = i;
+      continue;
+    }
+    if (worst < 0 || keyed[i].second < worst) worst = keyed[i].second, original = keyed[run_start].second;
   }
   if (worst >= 0) {
     const Triangle& t = faces[worst];
@@ -326,22 +341,31 @@ void check_rotation_indices(const std::vector<long long>& rotation_indices) {
 
 }  // namespace
 
-DiskMesh validate_mesh(const RawMesh& raw) {
+DiskMesh validate_mesh(const RawMesh& raw, const CancelToken* cancel) {
+  // Every pass is linear or one sort; the token is checked between passes and inside the costly ones.
   check_not_empty(raw);
+  check_cancel(cancel);
   check_finite_coordinates(raw);
+  check_cancel(cancel);
   check_triangles(raw);
   check_indices_in_range(raw);
+  check_cancel(cancel);
   std::vector<Triangle> faces = to_triangles(raw);
   check_no_repeated_corner(faces);
   check_all_referenced(raw.vertices.size(), faces);
-  check_no_degenerate_face(raw.vertices, faces);
-  check_no_duplicate_face(faces);
+  check_cancel(cancel);
+  check_no_degenerate_face(raw.vertices, faces, cancel);
+  check_no_duplicate_face(faces, cancel);
+  check_cancel(cancel);
 
   MeshTopology mesh(static_cast<int>(raw.vertices.size()), faces);
+  check_cancel(cancel);
   check_manifold_edges(mesh);
   check_orientation(mesh);
+  check_cancel(cancel);
   check_manifold_vertices(faces, raw.vertices.size(), mesh);
   if (!mesh.oriented_manifold()) throw InternalError("validate: a manifold, oriented mesh has no fans");
+  check_cancel(cancel);
   check_connected(faces, mesh);
   check_one_boundary_loop(mesh.boundary_loops());
   check_euler(raw.vertices.size(), static_cast<size_t>(mesh.edge_count()), faces.size());
@@ -354,7 +378,8 @@ DiskMesh validate_mesh(const RawMesh& raw) {
   return disk;
 }
 
-BoundaryMap validate_boundary(const DiskMesh& mesh, const RawBoundary& raw) {
+BoundaryMap validate_boundary(const DiskMesh& mesh, const RawBoundary& raw, const CancelToken* cancel) {
+  check_cancel(cancel);
   const bool listed = raw.vertices.has_value();
   check_lengths(raw, listed ? raw.vertices->size() : mesh.boundary_loop.size(), listed);
   check_positions_finite(raw.positions);

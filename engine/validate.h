@@ -37,12 +37,14 @@
 // Then validate_polygon (boundary_polygon.h) runs on the positions.
 #pragma once
 
+#include "engine/cancel.h"
 #include "engine/disk_mesh.h"
 
 namespace lipmap {
 
-DiskMesh validate_mesh(const RawMesh& raw);
+// Every pass is O(n log n) at worst; a cancelled or expired token throws Cancelled.
+DiskMesh validate_mesh(const RawMesh& raw, const CancelToken* cancel = nullptr);
 
-BoundaryMap validate_boundary(const DiskMesh& mesh, const RawBoundary& raw);
+BoundaryMap validate_boundary(const DiskMesh& mesh, const RawBoundary& raw, const CancelToken* cancel = nullptr);
 
 }  // namespace lipmap

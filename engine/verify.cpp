@@ -15,7 +15,19 @@ using detail::Pt;
 
 [[noreturn]] void fail(const std::string& what) { throw InternalError("verify: " + what); }
 
-double area3(const Point3& a, const Point3& b, const Point3& c) {
+// Areas are compared relatively, so they are measured on points scaled by 2^-k (exact for normal doubles)
+// that bring the largest |coordinate| near 1: squared lengths of meshes at 1e+-150 neither overflow nor
+// underflow.
+int area_exponent(const std::vector<Point3>& vertices) {
+  double m = 0;
+  for (const Point3& p : vertices) m = std::max({m, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+  int k = 0;
+  if (m > 0) std::frexp(m, &k);
+  return k;
+}
+
+double area3(Point3 a, Point3 b, Point3 c, int k) {
+  for (Point3* p : {&a, &b, &c}) *p = {std::ldexp(p->x, -k), std::ldexp(p->y, -k), std::ldexp(p->z, -k)};
   const double ux = b.x - a.x, uy = b.y - a.y, uz = b.z - a.z;
   const double vx = c.x - a.x, vy = c.y - a.y, vz = c.z - a.z;
   const double cx = uy * vz - uz * vy, cy = uz * vx - ux * vz, cz = ux * vy - uy * vx;
@@ -70,6 +82,7 @@ VerifyReport verify_map(const DiskMesh& source, const std::vector<int>& loop, co
     return iv.a == std::min(a, b) && iv.b == std::max(a, b);
   };
   double area = 0, source_area = 0;
+  const int area_k = area_exponent(source.vertices);
   std::vector<char> used(nv, 0);
   for (std::size_t f = 0; f < map.faces.size(); ++f) {
     const Triangle& t = map.faces[f];
@@ -82,7 +95,7 @@ VerifyReport verify_map(const DiskMesh& source, const std::vector<int>& loop, co
         fail("face " + std::to_string(f) + " has all corners on original edge " + std::to_string(a) + "-" + std::to_string(b));
       used[a] = 1;
     }
-    area += area3(map.vertices[t[0]], map.vertices[t[1]], map.vertices[t[2]]);
+    area += area3(map.vertices[t[0]], map.vertices[t[1]], map.vertices[t[2]], area_k);
   }
   for (int v = 0; v < nv; ++v)
     if (!used[v]) fail("vertex " + std::to_string(v) + " is used by no face");
@@ -112,7 +125,7 @@ VerifyReport verify_map(const DiskMesh& source, const std::vector<int>& loop, co
   }
   if (!mesh.oriented_manifold())
     fail("faces around vertex " + std::to_string(mesh.first_vertex_with_broken_fan()) + " are not one fan");
-  for (const Triangle& t : source.faces) source_area += area3(source.vertices[t[0]], source.vertices[t[1]], source.vertices[t[2]]);
+  for (const Triangle& t : source.faces) source_area += area3(source.vertices[t[0]], source.vertices[t[1]], source.vertices[t[2]], area_k);
   report.area_relative_error = std::abs(area - source_area) / source_area;
   if (!(report.area_relative_error <= 1e-9)) fail("3D area changed by a relative " + std::to_string(report.area_relative_error));
 

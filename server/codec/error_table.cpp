@@ -64,6 +64,8 @@ const std::vector<ErrorInfo> kTable = {
     // ---- the boundary (its positions and the mesh vertices they belong to): 422 -------------------------
     {"boundary_length_mismatch", 422, kInvalidBoundary, kIn},
     {"boundary_position_non_finite", 422, kInvalidBoundary, kIn},
+    // Positions so small that the map's interior uv would be subnormal doubles at the caller's scale.
+    {"coordinate_out_of_range", 422, kInvalidBoundary, kIn},
     {"boundary_vertex_out_of_range", 422, kInvalidBoundary, kIn},
     {"boundary_vertex_not_on_boundary", 422, kInvalidBoundary, kIn},
     {"boundary_vertex_repeated", 422, kInvalidBoundary, kIn},

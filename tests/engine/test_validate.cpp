@@ -18,6 +18,7 @@
 #include "tests/support/test_meshes.h"
 
 #include "engine/boundary_polygon.h"
+#include "engine/cancel.h"
 #include "engine/error.h"
 #include "engine/mesh_io.h"
 #include "engine/validate.h"
@@ -165,6 +166,49 @@ TEST(ValidateTest, DuplicateFaceNamesTheLaterFace) {
   ASSERT_GE(original, 0);
   InputError e = expect_error([&] { validate_mesh(mesh); }, "duplicate_face", "face", 8);
   EXPECT_TRUE(contains(e.what(), "as face " + std::to_string(original))) << e.what();
+}
+
+// Many copies of a few faces, interleaved with the grid's own faces: the answer names the earliest face that
+// repeats an earlier face's vertex set, and that earlier face (worked out here from the construction).
+TEST(ValidateTest, ManyDuplicateFacesNameTheFirstRepeat) {
+  for (int copies : {2, 1000, 200000}) {
+    RawMesh mesh = grid(4, 4);
+    const size_t n = mesh.faces.size();
+    const std::vector<long long> a = mesh.faces[5], b = mesh.faces[2];
+    for (int i = 0; i < copies; ++i) {
+      // rotations of the corners and both orientations: the vertex set is what makes a duplicate
+      std::vector<long long> f = i % 2 ? b : a;
+      std::rotate(f.begin(), f.begin() + i % 3, f.end());
+      if (i % 4 >= 2) std::swap(f[0], f[1]);
+      mesh.faces.push_back(f);
+    }
+    InputError e = expect_error([&] { validate_mesh(mesh); }, "duplicate_face", "face", static_cast<long long>(n));
+    EXPECT_TRUE(contains(e.what(), "as face 5")) << e.what();
+  }
+}
+
+// A token that has already fired stops validation with Cancelled, on a valid mesh and on a huge bad one.
+TEST(ValidateTest, CancelledOrExpiredTokenThrowsCancelled) {
+  RawMesh big = grid(3, 3);
+  for (int i = 0; i < 250000; ++i) big.faces.push_back(big.faces[0]);
+  for (const RawMesh* mesh : {&big}) {
+    CancelToken cancelled;
+    cancelled.cancel();
+    EXPECT_THROW(validate_mesh(*mesh, &cancelled), Cancelled);
+    CancelToken expired;
+    expired.set_deadline(CancelToken::Clock::now() - std::chrono::seconds(1));
+    EXPECT_THROW(validate_mesh(*mesh, &expired), Cancelled);
+  }
+  const RawMesh small = grid(3, 3);
+  const DiskMesh disk = validate_mesh(small);
+  RawBoundary boundary;
+  for (int v : disk.boundary_loop) boundary.positions.push_back({small.vertices[v].x, small.vertices[v].y});
+  CancelToken cancelled;
+  cancelled.cancel();
+  EXPECT_THROW(validate_mesh(small, &cancelled), Cancelled);
+  EXPECT_THROW(validate_boundary(disk, boundary, &cancelled), Cancelled);
+  CancelToken live;  // a live token changes nothing
+  EXPECT_NO_THROW(validate_boundary(validate_mesh(small, &live), boundary, &live));
 }
 
 TEST(ValidateTest, NonManifoldEdgeNamesTheEdge) {
