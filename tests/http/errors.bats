@@ -7,18 +7,9 @@
 bats_require_minimum_version 1.5.0
 load helpers/server
 
-setup_file() {
-  require_tools
-  start_server MAIN --workers 2 --queue 16 --test-hooks
-}
+setup_file() { serve_for_file MAIN --workers 2 --queue 16 --test-hooks; }
 
-teardown_file() {
-  stop_server MAIN
-}
-
-teardown() {
-  check_recorded_answers
-}
+teardown_file() { stop_server MAIN; }
 
 # post ENDPOINT BODY: POST a JSON body given as a string.
 post() {

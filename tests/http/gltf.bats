@@ -28,10 +28,6 @@ teardown_file() {
   stop_server MAIN
 }
 
-teardown() {
-  check_recorded_answers
-}
-
 # gltf_ok OUT IN BOUNDARY [--weld]: the answer file is a valid glTF and a correct map.
 gltf_ok() {
   node "$TOOLS/gltf_validate.js" "$1"

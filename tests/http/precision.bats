@@ -6,18 +6,9 @@
 bats_require_minimum_version 1.5.0
 load helpers/server
 
-setup_file() {
-  require_tools
-  start_server PRECISION --workers 1
-}
+setup_file() { serve_for_file PRECISION --workers 1; }
 
-teardown_file() {
-  stop_server PRECISION
-}
-
-teardown() {
-  check_recorded_answers
-}
+teardown_file() { stop_server PRECISION; }
 
 # body NAME SHAPE SCALE OFFSET: a grid body (make_request.js) with every coordinate c -> c * SCALE + OFFSET.
 body() {

@@ -5,18 +5,9 @@
 bats_require_minimum_version 1.5.0
 load helpers/server
 
-setup_file() {
-  require_tools
-  start_server MAIN --workers 2 --queue 16
-}
+setup_file() { serve_for_file MAIN --workers 2 --queue 16; }
 
-teardown_file() {
-  stop_server MAIN
-}
-
-teardown() {
-  check_recorded_answers
-}
+teardown_file() { stop_server MAIN; }
 
 # ---- probes, metrics, documents -------------------------------------------------------------------------
 

@@ -36,6 +36,17 @@ start_server() {
   export "${name}_URL" "${name}_PID"
 }
 
+# serve_for_file NAME [serve options...]: the suites' setup_file: the tools checked, then one service for the
+# whole file (stopped by its teardown_file with stop_server NAME).
+serve_for_file() {
+  require_tools
+  start_server "$@"
+}
+
+# Every test's answers are checked after it (a suite that stops servers of its own defines its own teardown,
+# which calls check_recorded_answers too).
+teardown() { check_recorded_answers; }
+
 # stop_server NAME [SIGNAL]: SIGTERM (or SIGNAL) and wait (at most 30 s) for the exit; the exit status is
 # in $stop_status.
 stop_server() {
