@@ -2,7 +2,8 @@
 # The test command (README): installs what is missing (Debian packages via setup.sh, the npm test tools
 # of package.json into ./node_modules), builds everything into build/ (Release, ccache; with CI=true the
 # project's warnings are errors), runs the GoogleTest suite with ctest, the layout rules
-# (tests/layout/check_layout.sh), then the bats suites (tests/cli, tests/http). Everything it reads is in the
+# (tests/layout/check_layout.sh), then the bats suites (tests/cli, tests/http); in CI (or with
+# LIPMAP_SANITIZERS=1) also the unit tests and the bad-input suites under ASan and UBSan. Everything it reads is in the
 # repository. Exits non-zero when anything fails; the last line sums up: "tests: N passed, M failed".
 #
 # Environment: LIPMAP_BUILD_DIR (default build), LIPMAP_JOBS (default 2).
@@ -13,6 +14,8 @@ build_dir="${LIPMAP_BUILD_DIR:-build}"
 jobs="${LIPMAP_JOBS:-2}"
 # ccache keys on paths relative to the checkout, so that every clone of the repository shares one cache.
 export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$PWD}"
+# The sanitizer build has debug info (-g), for which ccache would also key on the build folder by default.
+export CCACHE_NOHASHDIR="${CCACHE_NOHASHDIR:-true}"
 
 echo "== setup"
 bash scripts/setup.sh --with-tests
@@ -59,16 +62,47 @@ bash tests/layout/check_layout.sh 2>&1 | tee "$logs/layout.log"
 p=$(grep -cE '^ok [0-9]+' "$logs/layout.log") f=$(grep -cE '^not ok [0-9]+' "$logs/layout.log")
 passed=$((passed + p)) failed=$((failed + f))
 
-for suite in tests/cli tests/http; do
-  compgen -G "$suite/*.bats" >/dev/null || continue
-  echo "== bats $suite"
-  bats --tap "$suite" 2>&1 | tee "$logs/bats.log"
-  [[ ${PIPESTATUS[0]} -eq 0 ]] || failed_steps+=("bats $suite")
+run_bats() {  # run_bats STEP FILES...: one bats run, counted
+  local step="$1"; shift
+  echo "== bats $step"
+  bats --tap "$@" 2>&1 | tee "$logs/bats.log"
+  [[ ${PIPESTATUS[0]} -eq 0 ]] || failed_steps+=("bats $step")
+  local s p f
   s=$(grep -cE '^ok [0-9]+ .*# skip' "$logs/bats.log")
   p=$(grep -cE '^ok [0-9]+' "$logs/bats.log")
   f=$(grep -cE '^not ok [0-9]+' "$logs/bats.log")
   passed=$((passed + p - s)) failed=$((failed + f)) skipped=$((skipped + s))
+}
+for suite in tests/cli tests/http; do
+  compgen -G "$suite/*.bats" >/dev/null || continue
+  run_bats "$suite" "$suite"
 done
+
+# Sanitizers: the unit tests (less the long mesh x target matrices) and the bad-input suites once more under
+# AddressSanitizer (leaks included) and UndefinedBehaviorSanitizer, built in a folder of their own. Always in
+# CI; locally with LIPMAP_SANITIZERS=1 (a second full build).
+if [[ "${CI:-}" == true || "${LIPMAP_SANITIZERS:-}" == 1 ]]; then
+  asan_dir="$build_dir-asan"
+  echo "== sanitizers: build ($asan_dir, address,undefined)"
+  if cmake -S . -B "$asan_dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DLIPMAP_SANITIZE=address,undefined \
+       -DLIPMAP_BUILD_BENCH=OFF -DCMAKE_CXX_COMPILER_LAUNCHER=ccache >/dev/null &&
+     cmake --build "$asan_dir" -j "$jobs" --target lipmap lipmap_tests >"$logs/asan-build.log" 2>&1; then
+    export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1 UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+    echo "== sanitizers: GoogleTest"
+    "$asan_dir/tests/lipmap_tests" --gtest_brief=1 \
+      --gtest_filter='-MapPipelineTargets*:GltfPipeline*:*Shared*:Readme*' 2>&1 | tee "$logs/asan.log"
+    [[ ${PIPESTATUS[0]} -eq 0 ]] || failed_steps+=("sanitizers gtest")
+    p=$(sed -nE 's/^\[  PASSED  \] ([0-9]+) tests?\.$/\1/p' "$logs/asan.log" | tail -n 1)
+    f=$(sed -nE 's/^\[  FAILED  \] ([0-9]+) tests?, listed below:$/\1/p' "$logs/asan.log" | tail -n 1)
+    passed=$((passed + ${p:-0})) failed=$((failed + ${f:-0}))
+    export LIPMAP_BIN="$root/$asan_dir/server/lipmap"
+    run_bats "sanitizers (bad input)" tests/cli tests/http/errors.bats tests/http/hardening.bats tests/http/precision.bats
+    export LIPMAP_BIN="$root/$build_dir/server/lipmap"
+  else
+    tail -n 40 "$logs/asan-build.log"
+    failed_steps+=("sanitizers build")
+  fi
+fi
 
 if ((${#failed_steps[@]} > 0)); then
   echo "== FAILED: ${failed_steps[*]}"
