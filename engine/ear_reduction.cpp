@@ -26,10 +26,11 @@ public:
     double cell = std::sqrt(std::max(w * h, 1e-300) / n);
     cell = std::max({cell, w / n, h / n});
     if (p.size() <= kSmall) cell = std::max(w, h) * 2;  // brute force is cheaper than any grid
-    if (!(cell > 0) || !std::isfinite(cell)) cell = 1;
-    inv_ = 1 / cell;
-    nx_ = std::clamp(static_cast<int>(w * inv_) + 1, 1, 4096);
-    ny_ = std::clamp(static_cast<int>(h * inv_) + 1, 1, 4096);
+    if (cell > 0 && std::isfinite(cell)) {
+      inv_ = 1 / cell;
+      nx_ = 1 + cell_index(w * inv_, kMaxCells);
+      ny_ = 1 + cell_index(h * inv_, kMaxCells);
+    }  // else (a degenerate or overflowing extent, e.g. coordinates near 1e308): one cell, brute force
     cells_.resize(static_cast<std::size_t>(nx_) * ny_);
   }
 
@@ -62,9 +63,17 @@ public:
 
 private:
   static constexpr std::size_t kSmall = 24;
+  static constexpr int kMaxCells = 4096;
   struct Edge { int from, to; };
-  int cx(double x) const { return std::clamp(static_cast<int>(std::floor((x - x0_) * inv_)), 0, nx_ - 1); }
-  int cy(double y) const { return std::clamp(static_cast<int>(std::floor((y - y0_) * inv_)), 0, ny_ - 1); }
+  // A position in cell units to a cell index in [0, cells - 1], clamped in floating point before the cast:
+  // casting a value beyond int's range, or the NaN of an infinite offset times a zero scale, is undefined.
+  static int cell_index(double units, int cells) {
+    if (!(units >= 0)) return 0;
+    if (units >= cells - 1) return cells - 1;
+    return static_cast<int>(units);
+  }
+  int cx(double x) const { return cell_index(std::floor((x - x0_) * inv_), nx_); }
+  int cy(double y) const { return cell_index(std::floor((y - y0_) * inv_), ny_); }
   template <class F>
   void visit(const Pt& a, const Pt& b, F&& f) {
     const int cx0 = cx(std::min(a.x(), b.x())), cx1 = cx(std::max(a.x(), b.x()));
@@ -73,8 +82,8 @@ private:
       for (int x = cx0; x <= cx1; ++x) f(cells_[static_cast<std::size_t>(y) * nx_ + x]);
   }
 
-  double x0_, y0_, inv_;
-  int nx_, ny_;
+  double x0_ = 0, y0_ = 0, inv_ = 0;
+  int nx_ = 1, ny_ = 1;
   std::vector<std::vector<Edge>> cells_;
 };
 

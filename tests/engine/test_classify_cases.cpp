@@ -26,6 +26,22 @@ TEST(ClassifyCases, TriangleAndSquare) {
   EXPECT_EQ(sq.rotation_indices, std::vector<int>(4, 0));
 }
 
+// Finite coordinates near the ends of the double range: the extents overflow to infinity inside the ear
+// clipper's grid, which must fall back to one cell rather than cast infinity to int (undefined behaviour,
+// found by the classify fuzzer; the sanitizer run of the tests catches a regression). The verdicts follow
+// from the shapes: a counterclockwise square and a counterclockwise regular 40-gon are simple.
+TEST(ClassifyCases, CoordinatesNearTheEndsOfTheDoubleRange) {
+  for (double s : {1e308, 1.7e308, 1e-308, 4.9e-324}) {
+    const auto sq = classify(polygon({{-s, 0}, {s, 0}, {s, s}, {-s, s}}));
+    EXPECT_EQ(sq.verdict, Verdict::simple) << s;
+    std::vector<Point2> ngon;
+    for (int k = 0; k < 40; ++k)
+      ngon.push_back({s * std::cos(2 * M_PI * k / 40), s * std::sin(2 * M_PI * k / 40)});
+    if (s < 1e-300) continue;  // a subnormal scale rounds the 40-gon's vertices onto each other
+    EXPECT_EQ(classify(polygon(ngon)).verdict, Verdict::simple) << s;
+  }
+}
+
 // Straight vertices (angle pi) turn the tangent by zero: the square with its edge midpoints is a simple
 // counterclockwise polygon of turning number 1, each midpoint needing two triangles.
 TEST(ClassifyCases, StraightVerticesAreNotTurns) {
