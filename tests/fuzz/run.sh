@@ -24,11 +24,12 @@ if ! command -v clang++-14 >/dev/null; then
   echo "fuzz: clang++-14 not found (bash scripts/setup.sh --with-fuzz)" >&2
   exit 2
 fi
+mkdir -p "$build"
 cmake -S . -B "$build" -DLIPMAP_FUZZ=ON -DCMAKE_CXX_COMPILER=clang++-14 -DCMAKE_BUILD_TYPE=Release \
-  -DCMAKE_CXX_COMPILER_LAUNCHER=ccache >"$build.configure.log" 2>&1 \
-  || { cat "$build.configure.log" >&2; echo "fuzz: configure failed" >&2; exit 2; }
-cmake --build "$build" -j"$jobs" --target "${targets[@]}" >"$build.build.log" 2>&1 \
-  || { tail -50 "$build.build.log" >&2; echo "fuzz: build failed" >&2; exit 2; }
+  -DCMAKE_CXX_COMPILER_LAUNCHER=ccache >"$build/fuzz-configure.log" 2>&1 \
+  || { cat "$build/fuzz-configure.log" >&2; echo "fuzz: configure failed" >&2; exit 2; }
+cmake --build "$build" -j"$jobs" --target "${targets[@]}" >"$build/fuzz-build.log" 2>&1 \
+  || { tail -50 "$build/fuzz-build.log" >&2; echo "fuzz: build failed" >&2; exit 2; }
 
 out=$(mktemp -d "${TMPDIR:-/tmp}/lipmap-fuzz.XXXXXX")
 # Sanitizer reports end the run (libFuzzer then writes the reproducer); leaks are checked at every input.
