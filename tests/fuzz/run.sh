@@ -5,7 +5,7 @@
 # crashed, leaked, timed out, ran out of memory, hit a sanitizer report or let an unexpected exception
 # escape; the reproducer (crash-*, leak-*, timeout-*, oom-*) and the log are kept and their paths printed.
 #   bash tests/fuzz/run.sh [SECONDS]        e.g. bash tests/fuzz/run.sh 600 for a long run
-# LIPMAP_FUZZ_BUILD_DIR (default build-fuzz), LIPMAP_JOBS (default 2), LIPMAP_FUZZ_TARGETS (default all).
+# Scratch files of the targets go under the run folder (TMPDIR). LIPMAP_FUZZ_BUILD_DIR (default build-fuzz), LIPMAP_JOBS (default 2), LIPMAP_FUZZ_TARGETS (default all).
 set -uo pipefail
 
 seconds=${1:-60}
@@ -41,7 +41,7 @@ for target in "${targets[@]}"; do
   mkdir -p "$corpus" "$out/$target.artifacts"
   cp -r "tests/fuzz/corpus/$target/." "$corpus/"
   log=$out/$target.log
-  "$build/tests/fuzz/$target" "$corpus" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=10 \
+  TMPDIR=$out "$build/tests/fuzz/$target" "$corpus" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=10 \
     -print_final_stats=1 -artifact_prefix="$out/$target.artifacts/" >"$log" 2>&1
   rc=$?
   execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
