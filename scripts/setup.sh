@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs every Debian package lipmap needs to build, run and test (docs/build.md).
 # Idempotent: when everything is already present it does nothing and takes well under a second.
-#   bash scripts/setup.sh [--with-tests] [--with-bench]
+#   bash scripts/setup.sh [--with-tests] [--with-bench] [--with-fuzz]
 set -euo pipefail
 
 build_packages=(
@@ -13,13 +13,15 @@ build_packages=(
 )
 test_packages=(googletest libgtest-dev libgmock-dev bats curl jq)
 bench_packages=(curl jq wrk bc iproute2)  # bench/bench_http.sh: wrk on loopback; bc, ss for its figures
+fuzz_packages=(clang-14 libclang-rt-14-dev)  # tests/fuzz/run.sh: libFuzzer and the sanitizer runtimes
 
 want=("${build_packages[@]}")
 for arg in "$@"; do
   case "$arg" in
     --with-tests) want+=("${test_packages[@]}") ;;
     --with-bench) want+=("${bench_packages[@]}") ;;
-    *) echo "setup: unknown option $arg (expected --with-tests, --with-bench)" >&2; exit 2 ;;
+    --with-fuzz) want+=("${fuzz_packages[@]}") ;;
+    *) echo "setup: unknown option $arg (expected --with-tests, --with-bench, --with-fuzz)" >&2; exit 2 ;;
   esac
 done
 
