@@ -3,7 +3,8 @@
 # of package.json into ./node_modules), builds everything into build/ (Release, ccache; with CI=true the
 # project's warnings are errors), runs the GoogleTest suite with ctest, the layout rules
 # (tests/layout/check_layout.sh), then the bats suites (tests/cli, tests/http); in CI (or with
-# LIPMAP_SANITIZERS=1) also the unit tests and the bad-input suites under ASan and UBSan. Everything it reads is in the
+# LIPMAP_SANITIZERS=1) also the unit tests and the bad-input suites under ASan and UBSan, and (LIPMAP_FUZZ=1)
+# a fixed, seeded run of each fuzzer. Everything it reads is in the
 # repository. Exits non-zero when anything fails; the last line sums up: "tests: N passed, M failed".
 #
 # Environment: LIPMAP_BUILD_DIR (default build), LIPMAP_JOBS (default 2).
@@ -102,6 +103,18 @@ if [[ "${CI:-}" == true || "${LIPMAP_SANITIZERS:-}" == 1 ]]; then
     tail -n 40 "$logs/asan-build.log"
     failed_steps+=("sanitizers build")
   fi
+fi
+
+# Fuzzers: in CI each libFuzzer target (tests/fuzz/) runs a fixed number of inputs from a fixed seed on its
+# seed corpus, so that the run is the same on every machine; a crash, leak or sanitizer report fails it.
+# `bash tests/fuzz/run.sh 600` is the long run.
+if [[ "${CI:-}" == true || "${LIPMAP_FUZZ:-}" == 1 ]]; then
+  echo "== fuzz"
+  bash scripts/setup.sh --with-fuzz
+  LIPMAP_FUZZ_RUNS="${LIPMAP_FUZZ_RUNS:-20000}" bash tests/fuzz/run.sh 2>&1 | tee "$logs/fuzz.log"
+  [[ ${PIPESTATUS[0]} -eq 0 ]] || failed_steps+=(fuzz)
+  p=$(grep -cE '^fuzz: [a-z_]+: .* 0 crashes$' "$logs/fuzz.log") f=$(grep -cE '^fuzz: [a-z_]+: .* [1-9][0-9]* crashes$' "$logs/fuzz.log")
+  passed=$((passed + p)) failed=$((failed + f))
 fi
 
 if ((${#failed_steps[@]} > 0)); then

@@ -5,7 +5,8 @@
 # crashed, leaked, timed out, ran out of memory, hit a sanitizer report or let an unexpected exception
 # escape; the reproducer (crash-*, leak-*, timeout-*, oom-*) and the log are kept and their paths printed.
 #   bash tests/fuzz/run.sh [SECONDS]        e.g. bash tests/fuzz/run.sh 600 for a long run
-# Scratch files of the targets go under the run folder (TMPDIR). LIPMAP_FUZZ_BUILD_DIR (default build-fuzz), LIPMAP_JOBS (default 2), LIPMAP_FUZZ_TARGETS (default all).
+# Scratch files of the targets go under the run folder (TMPDIR). LIPMAP_FUZZ_BUILD_DIR (default build-fuzz),
+# LIPMAP_JOBS (default 2), LIPMAP_FUZZ_TARGETS (default all), LIPMAP_FUZZ_RUNS (inputs per target, seeded).
 set -uo pipefail
 
 seconds=${1:-60}
@@ -31,6 +32,15 @@ cmake -S . -B "$build" -DLIPMAP_FUZZ=ON -DCMAKE_CXX_COMPILER=clang++-14 -DCMAKE_
 cmake --build "$build" -j"$jobs" --target "${targets[@]}" >"$build/fuzz-build.log" 2>&1 \
   || { tail -50 "$build/fuzz-build.log" >&2; echo "fuzz: build failed" >&2; exit 2; }
 
+# LIPMAP_FUZZ_RUNS=N (CI): N inputs per target from a fixed seed instead of a time budget, so that a run does
+# the same work on every machine.
+if [[ -n "${LIPMAP_FUZZ_RUNS:-}" ]]; then
+  budget=(-runs="$LIPMAP_FUZZ_RUNS" -seed=1)
+  what="$LIPMAP_FUZZ_RUNS inputs (seed 1)"
+else
+  budget=(-max_total_time="$seconds")
+  what="$seconds s"
+fi
 out=$(mktemp -d "${TMPDIR:-/tmp}/lipmap-fuzz.XXXXXX")
 # Sanitizer reports end the run (libFuzzer then writes the reproducer); leaks are checked at every input.
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1}
@@ -41,7 +51,7 @@ for target in "${targets[@]}"; do
   mkdir -p "$corpus" "$out/$target.artifacts"
   cp -r "tests/fuzz/corpus/$target/." "$corpus/"
   log=$out/$target.log
-  TMPDIR=$out "$build/tests/fuzz/$target" "$corpus" -max_total_time="$seconds" -rss_limit_mb=2048 -timeout=10 \
+  TMPDIR=$out "$build/tests/fuzz/$target" "$corpus" "${budget[@]}" -rss_limit_mb=2048 -timeout=10 \
     -print_final_stats=1 -artifact_prefix="$out/$target.artifacts/" >"$log" 2>&1
   rc=$?
   execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
@@ -67,4 +77,4 @@ if ((failed)); then
   exit 1
 fi
 rm -rf "$out"
-echo "fuzz: ${#targets[@]} targets, ${seconds} s each, 0 crashes"
+echo "fuzz: ${#targets[@]} targets, $what each, 0 crashes"
