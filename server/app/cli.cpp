@@ -28,6 +28,7 @@
 #include "server/codec/json_codec.h"
 #include "server/codec/request_loader.h"
 #include "server/codec/svg_preview.h"
+#include "server/codec/text.h"
 #include "server/app/serve_command.h"
 
 namespace lipmap::cli {
@@ -119,10 +120,8 @@ int classify_command(const std::string& file, bool pretty, std::istream& in, std
 namespace {
 
 std::string lower_extension(const std::string& path) {
-  const std::string ext = std::filesystem::path(path).extension().string();
-  std::string out;
-  for (char c : ext) out += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return out.empty() ? out : out.substr(1);
+  const std::string ext = codec::lower(std::filesystem::path(path).extension().string());
+  return ext.empty() ? ext : ext.substr(1);
 }
 
 // An InputError about the boundary, when the boundary came from its own file: "/boundary/positions/3" ->

@@ -23,7 +23,7 @@ const char* extension(Format format) { return format == Format::glb ? ".glb" : "
 const char* to_string(Weld weld) { return weld == Weld::position ? "position" : "none"; }
 
 std::optional<Format> format_from_media_type(std::string_view content_type) {
-  const std::string t = lower(trim(content_type.substr(0, content_type.find(';'))));
+  const std::string t = codec::media_type(content_type);
   if (t == "model/gltf-binary") return Format::glb;
   if (t == "model/gltf+json") return Format::gltf;
   return std::nullopt;
@@ -63,7 +63,7 @@ std::optional<Format> accepted_format(std::string_view accept) {
     if (end == std::string_view::npos) end = accept.size();
     const std::string_view item = accept.substr(start, end - start);
     start = end + 1;
-    const std::string type = lower(trim(item.substr(0, item.find(';'))));
+    const std::string type = codec::media_type(item);
     if (type.empty()) continue;
     double q = 1;
     for (std::size_t at = item.find(';'); at != std::string_view::npos; at = item.find(';', at + 1)) {

@@ -16,6 +16,7 @@
 
 #include "engine/raw_mesh.h"
 #include "server/codec/gltf_codec.h"
+#include "server/codec/text.h"
 
 namespace lipmap::gltf {
 
@@ -38,8 +39,8 @@ namespace internal {
 inline constexpr int kByte = 5120, kUByte = 5121, kShort = 5122, kUShort = 5123, kUInt = 5125, kFloat = 5126;
 inline constexpr int kArrayBuffer = 34962, kElementArrayBuffer = 34963;
 
-std::string lower(std::string_view s);
-std::string trim(std::string_view s);
+using codec::lower;
+using codec::trim;
 bool starts_with(const std::string& s, const char* prefix);
 // The first n bytes in hex ("67 6c 54 46"), "nothing" when there are none.
 std::string hex_bytes(std::string_view b, std::size_t n);

@@ -6,22 +6,11 @@
 #include <utility>
 
 #include "engine/mesh_io.h"
+#include "server/codec/text.h"
 
 namespace lipmap::codec {
 
 namespace {
-
-std::string lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
-
-std::string media_type_only(const std::string& content_type) {
-  std::string t = lower(content_type.substr(0, content_type.find(';')));
-  const auto b = t.find_first_not_of(" \t");
-  const auto e = t.find_last_not_of(" \t");
-  return b == std::string::npos ? std::string() : t.substr(b, e - b + 1);
-}
 
 // A JsonError inside a named file: the file name and the pointer before the message.
 [[noreturn]] void rethrow_in_file(const JsonError& e, const std::string& file) {
@@ -113,7 +102,7 @@ std::optional<RequestForm> request_form(const RequestInput& input) {
     if (lower(std::filesystem::path(input.file).extension().string()) == ".json") return RequestForm::parametrize_json;
     return RequestForm::mesh_file;  // read_mesh_file names an extension it does not know
   }
-  const std::string media = media_type_only(input.media_type);
+  const std::string media = media_type(input.media_type);
   if (gltf::format_from_media_type(media)) return RequestForm::gltf_model;
   if (media == "multipart/form-data") return RequestForm::multipart;
   if (media == "application/json") return RequestForm::parametrize_json;
@@ -134,7 +123,7 @@ LoadedRequest load_request(const RequestInput& input) {
       if (!input.file.empty()) {
         out = gltf_file(input, *gltf::format_from_path(input.file));
       } else {
-        const gltf::Format format = *gltf::format_from_media_type(media_type_only(input.media_type));
+        const gltf::Format format = *gltf::format_from_media_type(media_type(input.media_type));
         out = from_gltf(gltf::request_from_model(input.body, format, input.gltf_params), RequestForm::gltf_model);
       }
       break;

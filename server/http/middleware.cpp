@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "server/codec/error_table.h"
+#include "server/codec/text.h"
 #include "server/http/job_store.h"
 
 // Last: with its OpenSSL support cpp-httplib pulls in <resolv.h>, whose `_res` macro breaks Eigen's headers.
@@ -20,11 +21,6 @@ using nlohmann::ordered_json;
 namespace {
 
 thread_local RequestContext tl_request;
-
-std::string lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
 
 bool acceptable_request_id(const std::string& s) {
   if (s.empty() || s.size() > 128) return false;
@@ -82,7 +78,7 @@ namespace {
 // that writes all of it and then reports failure: the client gets the whole answer, then the close.
 void close_after_answer(httplib::Response& res) {
   bool has_close = false;
-  for (const auto& [k, v] : res.headers) has_close |= lower(k) == "connection";
+  for (const auto& [k, v] : res.headers) has_close |= codec::lower(k) == "connection";
   if (!has_close) res.set_header("Connection", "close");
   if (res.body.empty()) return;
   auto body = std::make_shared<const std::string>(std::move(res.body));
@@ -126,7 +122,7 @@ std::optional<Answer> framing_problem(const Service& service, const httplib::Req
   }
   length = first.value_or(0);
   if (req.has_header("Transfer-Encoding")) {
-    const std::string te = lower(req.get_header_value("Transfer-Encoding"));
+    const std::string te = codec::lower(req.get_header_value("Transfer-Encoding"));
     if (te.find("chunked") == std::string::npos)
       return problem_answer("bad_request", "Transfer-Encoding " + quoted(req.get_header_value("Transfer-Encoding")) +
                                                " is not supported; send the body with a Content-Length");

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "server/codec/request_loader.h"
+#include "server/codec/text.h"
 #include "server/http/handlers.h"
 #include "server/http/middleware.h"
 
@@ -16,18 +17,6 @@ namespace lipmap::server {
 using nlohmann::json;
 
 namespace {
-
-std::string lower(std::string s) {
-  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return s;
-}
-
-std::string trim(const std::string& s) {
-  const auto b = s.find_first_not_of(" \t");
-  if (b == std::string::npos) return {};
-  const auto e = s.find_last_not_of(" \t");
-  return s.substr(b, e - b + 1);
-}
 
 std::optional<Answer> check_mesh_limits(const ServerConfig& config, const codec::ParametrizeRequest& r) {
   if (r.mesh.vertices.size() > config.max_vertices)
@@ -52,7 +41,7 @@ std::optional<Answer> check_mesh_limits(const ServerConfig& config, const codec:
 
 std::optional<Answer> require_json(const httplib::Request& req) {
   const std::string raw = req.get_header_value("Content-Type");
-  const std::string type = lower(trim(raw.substr(0, raw.find(';'))));
+  const std::string type = codec::media_type(raw);
   if (type == "application/json") return std::nullopt;
   const std::string detail =
       raw.empty() ? std::string("the request has no Content-Type; send the body as application/json")
