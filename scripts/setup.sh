@@ -9,9 +9,10 @@ build_packages=(
   libcgal-dev libgmp-dev libmpfr-dev libboost-dev
   libeigen3-dev libopenmesh-dev libsuitesparse-dev libopenblas0-pthread
   nlohmann-json3-dev libcpp-httplib-dev libtinygltf-dev
-  libtbb-dev libspdlog-dev libcli11-dev
+  libtbb-dev libspdlog-dev libcli11-dev libhiredis-dev
 )
-test_packages=(googletest libgtest-dev libgmock-dev bats curl jq)
+# redis-server and nginx: the cluster suite (tests/cluster) runs them unprivileged on loopback.
+test_packages=(googletest libgtest-dev libgmock-dev bats curl jq redis-server nginx)
 bench_packages=(curl jq wrk bc iproute2)  # bench/bench_http.sh: wrk on loopback; bc, ss for its figures
 fuzz_packages=(clang-14 libclang-rt-14-dev)  # tests/fuzz/run.sh: libFuzzer and the sanitizer runtimes
 
@@ -36,4 +37,14 @@ if [[ $(id -u) -ne 0 ]]; then sudo="sudo"; fi
 echo "setup: installing ${missing[*]}" >&2
 export DEBIAN_FRONTEND=noninteractive
 $sudo apt-get update -qq
-$sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+# Daemons are not started by the install (redis-server and nginx would take ports 6379 and 80 as system
+# services; the tests start their own): a policy-rc.d that forbids starting, only for this install.
+policy=/usr/sbin/policy-rc.d
+own_policy=""
+if [[ ! -e $policy ]]; then
+  printf '#!/bin/sh\nexit 101\n' | $sudo tee "$policy" >/dev/null && $sudo chmod +x "$policy" && own_policy=1
+fi
+status=0
+$sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null || status=$?
+if [[ -n $own_policy ]]; then $sudo rm -f "$policy"; fi
+exit "$status"

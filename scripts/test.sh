@@ -2,7 +2,7 @@
 # The test command (README): installs what is missing (Debian packages via setup.sh, the npm test tools
 # of package.json into ./node_modules), builds everything into build/ (Release, ccache; with CI=true the
 # project's warnings are errors), runs the GoogleTest suite with ctest, the layout rules
-# (tests/layout/check_layout.sh), then the bats suites (tests/cli, tests/http); in CI (or with
+# (tests/layout/check_layout.sh), then the bats suites (tests/cli, tests/http, tests/cluster); in CI (or with
 # LIPMAP_SANITIZERS=1) also the unit tests and the bad-input suites under ASan and UBSan, and (LIPMAP_FUZZ=1)
 # a fixed, seeded run of each fuzzer. Everything it reads is in the
 # repository. Exits non-zero when anything fails; the last line sums up: "tests: N passed, M failed".
@@ -74,7 +74,8 @@ run_bats() {  # run_bats STEP FILES...: one bats run, counted
   f=$(grep -cE '^not ok [0-9]+' "$logs/bats.log")
   passed=$((passed + p - s)) failed=$((failed + f)) skipped=$((skipped + s))
 }
-for suite in tests/cli tests/http; do
+# tests/cluster: Redis, three replicas and nginx on loopback (about a minute), and the deployment files.
+for suite in tests/cli tests/http tests/cluster; do
   compgen -G "$suite/*.bats" >/dev/null || continue
   run_bats "$suite" "$suite"
 done

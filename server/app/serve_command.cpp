@@ -63,6 +63,17 @@ CLI::App* add_serve_subcommand(CLI::App& app, ServeOptions& o) {
                   "Seconds in-flight requests may finish after SIGTERM/SIGINT before they are cancelled")
       ->envname("LIPMAP_GRACE")
       ->capture_default_str();
+  cmd->add_option("--queue-url", c.queue_url,
+                  "Shared job queue redis://HOST[:PORT][/DB]: every replica serves every job; empty: jobs in this process")
+      ->envname("LIPMAP_QUEUE_URL");
+  cmd->add_option("--queue-visibility", c.queue_visibility_seconds,
+                  "Shared queue: seconds after which a job whose replica stopped renewing its claim is run elsewhere")
+      ->envname("LIPMAP_QUEUE_VISIBILITY")
+      ->capture_default_str();
+  cmd->add_option("--max-result-bytes", c.max_result_bytes,
+                  "Shared queue: largest job result kept in Redis; beyond, the job fails (result_too_large)")
+      ->envname("LIPMAP_MAX_RESULT_BYTES")
+      ->capture_default_str();
   cmd->add_option("--log-level", o.log_level, "trace, debug, info, warn, error or off")
       ->envname("LIPMAP_LOG_LEVEL")
       ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}))

@@ -135,6 +135,10 @@ const std::vector<ErrorInfo> kTable = {
     {"internal_error", 500, "Internal error", kInternal},
     {"queue_full", 503, "Queue full", kInternal},
     {"shutting_down", 503, "Shutting down", kInternal},
+    // The shared job queue (Redis) cannot be reached: job endpoints and /readyz answer this until it is back.
+    {"queue_unavailable", 503, "Queue unavailable", kInternal},
+    // A job's result is larger than the shared queue keeps (--max-result-bytes).
+    {"result_too_large", 507, "Result too large", kInternal},
     {"out_of_memory", 503, "Out of memory", kInternal},
     {"deadline_exceeded", 504, "Deadline exceeded", kInternal},
 };

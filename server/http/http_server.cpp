@@ -19,6 +19,7 @@
 
 #include "server/http/handlers.h"
 #include "server/http/middleware.h"
+#include "server/http/redis_jobs.h"
 #include "server/http/routes.h"
 #include "server/http/service.h"
 
@@ -45,6 +46,10 @@ ServerConfig resolve(ServerConfig c) {
   if (c.max_results < 1) bad("max results must be at least 1");
   if (!(c.grace_seconds >= 0) || !std::isfinite(c.grace_seconds)) bad("grace period must be >= 0 seconds");
   if (c.keep_alive_seconds < 1) bad("keep-alive timeout must be at least 1 second");
+  if (!c.queue_url.empty()) parse_redis_url(c.queue_url);  // throws naming the problem
+  if (!(c.queue_visibility_seconds >= 0.2) || !std::isfinite(c.queue_visibility_seconds))
+    bad("queue visibility timeout must be at least 0.2 seconds");
+  if (c.max_result_bytes == 0) bad("max result size must be at least 1 byte");
   return c;
 }
 
@@ -162,7 +167,8 @@ void HttpServer::start() {
                                         {"max_results", c.max_results},
                                         {"grace_seconds", c.grace_seconds},
                                         {"remapping_engine", true},
-                                        {"test_hooks", c.test_hooks}}, true);
+                                        {"test_hooks", c.test_hooks},
+                                        {"queue_url", c.queue_url}}, true);
   if (c.test_hooks)
     s.service.event(spdlog::level::warn, {{"event", "test_hooks_enabled"},
                                           {"detail", "X-Lipmap-Test-* headers are honoured: never run like this in production"}});

@@ -33,6 +33,10 @@ struct ServerConfig {
   double grace_seconds = 30;                // SIGTERM: in-flight work may finish for this long, then is cancelled
   int keep_alive_seconds = 2;               // idle keep-alive connections are closed after this
   bool test_hooks = false;                  // honour X-Lipmap-Test-* request headers (tests only)
+  // Shared job queue (server/http/redis_jobs.h): redis://HOST[:PORT][/DB]; empty: jobs stay in this process.
+  std::string queue_url;
+  double queue_visibility_seconds = 30;     // a job's claim not renewed for this long is taken over
+  std::size_t max_result_bytes = 256u << 20;  // shared queue: a larger result fails the job (result_too_large)
 };
 
 // Checks ranges and fills the automatic values (workers, http_threads); throws std::invalid_argument

@@ -174,6 +174,18 @@ std::string Metrics::render(const RuntimeGauges& g) const {
            it == results_dropped_.end() ? 0.0 : static_cast<double>(it->second));
   }
 
+  if (g.shared_queue) {
+    header(out, "lipmap_shared_queue_up", "gauge", "1 when the shared job queue (Redis) answers.");
+    sample(out, "lipmap_shared_queue_up", "", g.redis_up ? 1 : 0);
+    header(out, "lipmap_shared_queue_depth", "gauge", "Jobs in the shared queue waiting for a worker of any replica.");
+    sample(out, "lipmap_shared_queue_depth", "", static_cast<double>(g.shared_waiting));
+    header(out, "lipmap_jobs_reclaimed_total", "counter",
+           "Jobs this replica took over from a replica that stopped renewing its claim.");
+    sample(out, "lipmap_jobs_reclaimed_total", "", static_cast<double>(g.reclaimed));
+    header(out, "lipmap_redis_errors_total", "counter", "Redis commands or connections that failed.");
+    sample(out, "lipmap_redis_errors_total", "", static_cast<double>(g.redis_errors));
+  }
+
   header(out, "lipmap_engine_stage_seconds", "histogram", "Engine wall time per stage of finished work.");
   for (const auto& [stage, h] : stage_seconds_) h.render(out, "lipmap_engine_stage_seconds", label("stage", stage));
 

@@ -34,6 +34,11 @@ struct RuntimeGauges {
   std::map<std::string, std::size_t> jobs_by_state;  // every state, including zeros
   bool draining = false;
   double uptime_seconds = 0;
+  // The shared job queue (--queue-url), when there is one.
+  bool shared_queue = false;
+  bool redis_up = false;
+  long long shared_waiting = 0;  // jobs in the shared queue waiting for a worker of any replica
+  std::uint64_t reclaimed = 0, redis_errors = 0;
 };
 
 class Metrics {

@@ -1,5 +1,6 @@
 // What operators and clients ask of the service itself: GET /healthz, /readyz, /metrics, /version, and the
 // API's own documents (/v1/openapi.json, /v1/{schema}.schema.json, compiled in from proto/).
+#include <algorithm>
 #include <string>
 
 #include "server/http/handlers.h"
@@ -40,6 +41,11 @@ Answer get_healthz(Service&, const httplib::Request&) { return text("ok\n"); }
 // Readiness: 503 once draining, so that a load balancer stops sending work.
 Answer get_readyz(Service& service, const httplib::Request&) {
   if (service.draining) return problem_answer("shutting_down", "the service is shutting down");
+  if (service.cluster && !service.cluster->ready()) {
+    Answer a = problem_answer("queue_unavailable", "the shared job queue (Redis) cannot be reached");
+    a.headers.emplace_back("Retry-After", "2");
+    return a;
+  }
   return text("ready\n");
 }
 
@@ -53,6 +59,14 @@ Answer get_metrics(Service& service, const httplib::Request&) {
   g.jobs_by_state = service.store.counts_by_state();
   g.draining = service.draining;
   g.uptime_seconds = std::chrono::duration<double>(Clock::now() - service.started_at).count();
+  if (service.cluster) {
+    g.shared_queue = true;
+    g.shared_waiting = service.cluster->waiting();
+    g.redis_up = g.shared_waiting >= 0;
+    g.shared_waiting = std::max(g.shared_waiting, 0LL);
+    g.reclaimed = service.cluster->reclaimed();
+    g.redis_errors = service.cluster->errors();
+  }
   Answer a;
   a.content_type = "text/plain; version=0.0.4; charset=utf-8";
   a.body = service.metrics.render(g);

@@ -63,7 +63,14 @@ Service::Service(ServerConfig c, std::shared_ptr<spdlog::logger> logger)
       store(JobStore::Limits{config.max_results,
                              std::chrono::milliseconds(static_cast<long long>(config.result_ttl_seconds * 1000)),
                              100000},
-            [this](const std::string& why) { metrics.count_results_dropped(why); }) {}
+            [this](const std::string& why) { metrics.count_results_dropped(why); }) {
+  if (!config.queue_url.empty()) cluster = std::make_unique<RedisJobs>(*this);
+}
+
+Service::~Service() {
+  if (cluster) cluster->stop();  // no more jobs taken; those on the pool end before it is joined
+  pool.join();
+}
 
 void Service::event(spdlog::level::level_enum level, ordered_json fields, bool lifecycle) const {
   if (!log) return;

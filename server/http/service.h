@@ -20,6 +20,7 @@
 #include "server/http/job_store.h"
 #include "server/http/metrics.h"
 #include "server/http/problems.h"
+#include "server/http/redis_jobs.h"
 #include "server/http/worker_pool.h"
 
 namespace httplib {
@@ -45,12 +46,16 @@ void apply_hooks(const TestHooks& hooks, const CancelToken& token);
 class Service {
 public:
   Service(ServerConfig config, std::shared_ptr<spdlog::logger> logger);
+  ~Service();
 
   const ServerConfig config;
   const std::shared_ptr<spdlog::logger> log;
   Metrics metrics;
   WorkerPool pool;
   JobStore store;
+  // The shared job queue (--queue-url); null: the jobs are the in-memory store's. Declared after the pool
+  // and stopped before it is joined (~Service).
+  std::unique_ptr<RedisJobs> cluster;
   std::atomic<bool> draining{false};
   const Clock::time_point started_at = Clock::now();
 

@@ -1,0 +1,782 @@
+#include "server/http/redis_jobs.h"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdlib>
+#include <random>
+
+#include <hiredis/hiredis.h>
+#include <nlohmann/json.hpp>
+
+#include "server/http/handlers.h"
+#include "server/http/service.h"
+
+namespace lipmap::server {
+
+using nlohmann::json;
+using nlohmann::ordered_json;
+using SysClock = std::chrono::system_clock;
+
+namespace {
+
+const std::string kStream = "lipmap:jobs";
+const std::string kGroup = "workers";
+// A job started this many times without finishing (its replicas died each time) fails instead of killing
+// the next one too.
+constexpr long long kMaxAttempts = 5;
+// How long a dropped job's id still answers 410 rather than 404.
+constexpr long long kTombstoneMs = 24LL * 3600 * 1000;
+constexpr std::size_t kLocalCache = 8;
+
+std::string job_key(const std::string& id) { return "lipmap:job:" + id; }
+std::string req_key(const std::string& id) { return "lipmap:req:" + id; }
+std::string result_key(const std::string& id) { return "lipmap:result:" + id; }
+std::string gone_key(const std::string& id) { return "lipmap:gone:" + id; }
+std::string rendering_key(const std::string& id, const std::string& kind) { return "lipmap:" + kind + ":" + id; }
+
+long long now_ms() {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(SysClock::now().time_since_epoch()).count();
+}
+SysClock::time_point from_ms(long long ms) { return SysClock::time_point(std::chrono::milliseconds(ms)); }
+
+// The scripts run atomically inside Redis: a job's state changes in one step, so that a DELETE and a
+// worker starting the same job never both win.
+
+// KEYS stream, job; ARGV cap, id, created, deadline, delay_ms, fault, pexpire. {1, entry} or {0, waiting}.
+const char* kSubmit = R"(
+local waiting = redis.call('XLEN', KEYS[1])
+local p = redis.pcall('XPENDING', KEYS[1], 'workers')
+if type(p) == 'table' and p.err == nil then waiting = waiting - p[1] end
+if waiting >= tonumber(ARGV[1]) then return {0, waiting} end
+local entry = redis.call('XADD', KEYS[1], '*', 'id', ARGV[2])
+redis.call('HSET', KEYS[2], 'state', 'queued', 'created', ARGV[3], 'deadline', ARGV[4], 'delay_ms', ARGV[5],
+           'fault', ARGV[6], 'entry', entry, 'attempts', 0)
+redis.call('PEXPIRE', KEYS[2], ARGV[7])
+return {1, entry})";
+
+// KEYS job; ARGV started, owner. {'run', attempts} or {state, 0}.
+const char* kStart = R"(
+local s = redis.call('HGET', KEYS[1], 'state')
+if not s then return {'missing', 0} end
+if s ~= 'queued' and s ~= 'running' then return {s, 0} end
+redis.call('HSET', KEYS[1], 'state', 'running', 'started', ARGV[1], 'owner', ARGV[2])
+return {'run', redis.call('HINCRBY', KEYS[1], 'attempts', 1)})";
+
+// KEYS job, result, req, gone; ARGV state, problem, result, finished, result_bytes, progress, keep_ms, gone_ms.
+const char* kFinish = R"(
+local s = redis.call('HGET', KEYS[1], 'state')
+if not s then return 'missing' end
+if s ~= 'running' then return s end
+redis.call('HSET', KEYS[1], 'state', ARGV[1], 'finished', ARGV[4], 'result_bytes', ARGV[5], 'progress', ARGV[6])
+if ARGV[2] ~= '' then redis.call('HSET', KEYS[1], 'problem', ARGV[2]) end
+if ARGV[3] ~= '' then redis.call('SET', KEYS[2], ARGV[3], 'PX', ARGV[7]) end
+redis.call('PEXPIRE', KEYS[1], ARGV[7])
+redis.call('PEXPIRE', KEYS[3], ARGV[7])
+redis.call('SET', KEYS[4], 'expired', 'PX', ARGV[8])
+return 'ok')";
+
+// KEYS job; ARGV problem, finished. The state before: 'queued' (now cancelled), 'running' (flag set), ...
+const char* kCancel = R"(
+local s = redis.call('HGET', KEYS[1], 'state')
+if not s then return 'missing' end
+if s == 'queued' then
+  redis.call('HSET', KEYS[1], 'state', 'cancelled', 'cancel', '1', 'problem', ARGV[1], 'finished', ARGV[2])
+elseif s == 'running' then
+  redis.call('HSET', KEYS[1], 'cancel', '1')
+end
+return s)";
+
+// KEYS stream, job; ARGV entry, id. A running job goes back to the queue (its replica shuts down).
+const char* kHandBack = R"(
+local s = redis.call('HGET', KEYS[2], 'state')
+if s ~= 'running' then return 0 end
+local e = redis.call('XADD', KEYS[1], '*', 'id', ARGV[2])
+redis.call('HSET', KEYS[2], 'state', 'queued', 'entry', e, 'progress', '')
+redis.call('HINCRBY', KEYS[2], 'attempts', -1)
+redis.call('XACK', KEYS[1], 'workers', ARGV[1])
+redis.call('XDEL', KEYS[1], ARGV[1])
+return 1)";
+
+std::string replica_name() {
+  char host[256] = {0};
+  if (gethostname(host, sizeof host - 1) != 0) host[0] = 0;
+  std::random_device device;
+  return std::string(host[0] ? host : "replica") + "-" + std::to_string(getpid()) + "-" +
+         std::to_string(device() % 100000);
+}
+
+}  // namespace
+
+// ---- the URL ----------------------------------------------------------------------------------------------
+
+RedisUrl parse_redis_url(const std::string& url) {
+  const std::string scheme = "redis://";
+  auto bad = [&](const std::string& why) {
+    throw std::invalid_argument("queue URL " + json(url).dump(-1, ' ', false, json::error_handler_t::replace) +
+                                " " + why + " (expected redis://HOST[:PORT][/DB])");
+  };
+  if (url.compare(0, scheme.size(), scheme) != 0) bad("does not start with redis://");
+  std::string rest = url.substr(scheme.size());
+  RedisUrl u;
+  if (const auto slash = rest.find('/'); slash != std::string::npos) {
+    const std::string db = rest.substr(slash + 1);
+    rest.resize(slash);
+    if (!db.empty()) {
+      if (db.size() > 4 || !std::all_of(db.begin(), db.end(), [](char c) { return c >= '0' && c <= '9'; }))
+        bad("has a database that is not a number");
+      u.db = std::stoi(db);
+    }
+  }
+  if (rest.find('@') != std::string::npos) bad("has credentials, which are not supported");
+  if (const auto colon = rest.rfind(':'); colon != std::string::npos && rest.find(']') == std::string::npos) {
+    const std::string port = rest.substr(colon + 1);
+    rest.resize(colon);
+    if (port.empty() || port.size() > 5 ||
+        !std::all_of(port.begin(), port.end(), [](char c) { return c >= '0' && c <= '9'; }))
+      bad("has a port that is not a number");
+    u.port = std::stoi(port);
+    if (u.port < 1 || u.port > 65535) bad("has a port outside 1..65535");
+  }
+  if (rest.empty()) bad("has no host");
+  u.host = rest;
+  return u;
+}
+
+// ---- one connection ---------------------------------------------------------------------------------------
+
+namespace {
+
+struct ReplyDeleter {
+  void operator()(redisReply* r) const {
+    if (r) freeReplyObject(r);
+  }
+};
+using Reply = std::unique_ptr<redisReply, ReplyDeleter>;
+
+// An error reply of Redis (e.g. NOGROUP): the connection itself is fine.
+class ReplyError : public QueueUnavailable {
+public:
+  using QueueUnavailable::QueueUnavailable;
+};
+
+std::string str(const redisReply* r) {
+  if (!r) return {};
+  if (r->type == REDIS_REPLY_STRING || r->type == REDIS_REPLY_STATUS) return std::string(r->str, r->len);
+  if (r->type == REDIS_REPLY_INTEGER) return std::to_string(r->integer);
+  return {};
+}
+
+long long integer(const redisReply* r) {
+  if (!r) return 0;
+  if (r->type == REDIS_REPLY_INTEGER) return r->integer;
+  if (r->type == REDIS_REPLY_STRING) return std::atoll(std::string(r->str, r->len).c_str());
+  return 0;
+}
+
+bool is_array(const redisReply* r, std::size_t min_elements = 0) {
+  return r && r->type == REDIS_REPLY_ARRAY && r->elements >= min_elements;
+}
+
+}  // namespace
+
+class RedisConnection {
+public:
+  RedisConnection(const RedisUrl& url, std::chrono::milliseconds timeout) {
+    timeval tv{static_cast<time_t>(timeout.count() / 1000), static_cast<suseconds_t>((timeout.count() % 1000) * 1000)};
+    c_ = redisConnectWithTimeout(url.host.c_str(), url.port, tv);
+    if (!c_) throw QueueUnavailable("cannot allocate a Redis connection");
+    if (c_->err) {
+      const std::string why = c_->errstr;
+      redisFree(c_);
+      c_ = nullptr;
+      throw QueueUnavailable("cannot connect to Redis at " + url.host + ":" + std::to_string(url.port) + ": " + why);
+    }
+    redisSetTimeout(c_, tv);
+    if (url.db != 0) command({"SELECT", std::to_string(url.db)});
+  }
+  ~RedisConnection() {
+    if (c_) redisFree(c_);
+  }
+  RedisConnection(const RedisConnection&) = delete;
+  RedisConnection& operator=(const RedisConnection&) = delete;
+
+  Reply command(const std::vector<std::string>& args) {
+    if (broken_) throw QueueUnavailable("the Redis connection is broken");
+    std::vector<const char*> argv;
+    std::vector<size_t> lengths;
+    argv.reserve(args.size());
+    lengths.reserve(args.size());
+    for (const std::string& a : args) {
+      argv.push_back(a.data());
+      lengths.push_back(a.size());
+    }
+    Reply r(static_cast<redisReply*>(
+        redisCommandArgv(c_, static_cast<int>(argv.size()), argv.data(), lengths.data())));
+    if (!r || c_->err) {
+      broken_ = true;
+      throw QueueUnavailable(std::string("Redis: ") + (c_->err ? c_->errstr : "no reply"));
+    }
+    if (r->type == REDIS_REPLY_ERROR) throw ReplyError("Redis " + args[0] + ": " + std::string(r->str, r->len));
+    return r;
+  }
+  bool broken() const { return broken_; }
+
+private:
+  redisContext* c_ = nullptr;
+  bool broken_ = false;
+};
+
+// A connection of the handlers' pool; it goes back to the pool unless it broke.
+class RedisJobs::Lease {
+public:
+  explicit Lease(RedisJobs& jobs) : jobs_(jobs) {
+    {
+      std::lock_guard<std::mutex> lock(jobs.pool_mutex_);
+      if (!jobs.idle_.empty()) {
+        conn_ = std::move(jobs.idle_.back());
+        jobs.idle_.pop_back();
+        return;
+      }
+      if (std::chrono::steady_clock::now() < jobs.next_attempt_)
+        throw QueueUnavailable("Redis at " + jobs.url_.host + ":" + std::to_string(jobs.url_.port) +
+                               " could not be reached; the next attempt is within " +
+                               std::to_string(jobs.backoff_.count()) + " ms");
+    }
+    try {
+      conn_ = jobs.connect();
+    } catch (const QueueUnavailable& e) {
+      std::lock_guard<std::mutex> lock(jobs.pool_mutex_);
+      jobs.backoff_ = std::clamp(jobs.backoff_ * 2, std::chrono::milliseconds(100), std::chrono::milliseconds(5000));
+      jobs.next_attempt_ = std::chrono::steady_clock::now() + jobs.backoff_;
+      jobs.note_error("connect", e.what());
+      throw;
+    }
+    std::lock_guard<std::mutex> lock(jobs.pool_mutex_);
+    jobs.backoff_ = std::chrono::milliseconds(0);
+  }
+  ~Lease() {
+    if (!conn_ || conn_->broken()) return;
+    std::lock_guard<std::mutex> lock(jobs_.pool_mutex_);
+    if (jobs_.idle_.size() < 32) jobs_.idle_.push_back(std::move(conn_));
+  }
+  Reply operator()(const std::vector<std::string>& args) {
+    try {
+      return conn_->command(args);
+    } catch (const QueueUnavailable& e) {
+      jobs_.note_error(args.empty() ? "" : args[0], e.what());
+      throw;
+    }
+  }
+  RedisConnection& connection() { return *conn_; }
+
+private:
+  RedisJobs& jobs_;
+  std::unique_ptr<RedisConnection> conn_;
+};
+
+// ---- the stored request -----------------------------------------------------------------------------------
+
+codec::RequestInput StoredRequest::input() const {
+  codec::RequestInput in;
+  in.body = body;
+  in.media_type = media_type;
+  in.parts = parts;
+  in.gltf_params = params;
+  return in;
+}
+
+// ---- RedisJobs --------------------------------------------------------------------------------------------
+
+struct RedisJobs::Running {
+  std::string entry;
+  Job job;
+  Running(std::string e, std::string id) : entry(std::move(e)), job(std::move(id)) {}
+};
+
+RedisJobs::RedisJobs(Service& service)
+    : service_(service),
+      url_(parse_redis_url(service.config.queue_url)),
+      consumer_(replica_name()),
+      visibility_(static_cast<long long>(service.config.queue_visibility_seconds * 1000)),
+      ttl_(std::max<long long>(1, static_cast<long long>(service.config.result_ttl_seconds * 1000))) {
+  fetcher_ = std::thread([this] { fetch_loop(); });
+  heartbeat_ = std::thread([this] { heartbeat_loop(); });
+}
+
+RedisJobs::~RedisJobs() { stop(); }
+
+void RedisJobs::stop() {
+  stopping_ = true;
+  fetching_ = false;
+  wake_.notify_all();
+  if (fetcher_.joinable()) fetcher_.join();
+  if (heartbeat_.joinable()) heartbeat_.join();
+}
+
+void RedisJobs::stop_fetching() {
+  fetching_ = false;
+  wake_.notify_all();
+}
+
+std::unique_ptr<RedisConnection> RedisJobs::connect() {
+  return std::make_unique<RedisConnection>(url_, std::chrono::milliseconds(2000));
+}
+
+void RedisJobs::note_error(const std::string& where, const std::string& what) {
+  ++errors_;
+  service_.event(spdlog::level::warn, {{"event", "redis_error"}, {"command", where}, {"detail", what}});
+}
+
+bool RedisJobs::local_capacity() const {
+  return service_.pool.busy() + service_.pool.queue_depth() < service_.pool.workers();
+}
+
+std::string RedisJobs::submit(const StoredRequest& request, SysClock::time_point deadline, long long delay_ms,
+                              const std::string& fault) {
+  const std::string id = new_job_id();
+  const long long created = now_ms();
+  const long long deadline_ms =
+      std::chrono::duration_cast<std::chrono::milliseconds>(deadline.time_since_epoch()).count();
+  // Until it finishes a job is kept for its deadline plus the retention time (and the visibility timeout, for
+  // a last run that is taken over).
+  const long long keep = std::max<long long>(deadline_ms - created, 0) + ttl_.count() + visibility_.count() + 60000;
+  Lease redis(*this);
+  std::vector<std::string> hset{"HSET", req_key(id), "media_type", request.media_type, "body", request.body};
+  auto param = [&](const char* name, const std::optional<std::string>& v) {
+    if (v) {
+      hset.push_back(std::string("p:") + name);
+      hset.push_back(*v);
+    }
+  };
+  param("mesh", request.params.mesh);
+  param("primitive", request.params.primitive);
+  param("weld", request.params.weld);
+  param("boundary", request.params.boundary);
+  for (const auto& [name, part] : request.parts) {
+    hset.insert(hset.end(), {"part:" + name, part.content, "ptype:" + name, part.content_type});
+  }
+  redis(hset);
+  redis({"PEXPIRE", req_key(id), std::to_string(keep)});
+  Reply r = redis({"EVAL", kSubmit, "2", kStream, job_key(id), std::to_string(service_.config.queue_capacity), id,
+                   std::to_string(created), std::to_string(deadline_ms), std::to_string(delay_ms), fault,
+                   std::to_string(keep)});
+  if (!is_array(r.get(), 2)) throw QueueUnavailable("Redis: unexpected answer to the submit script");
+  if (integer(r->element[0]) == 0) {
+    redis({"DEL", req_key(id)});
+    throw SharedQueueFull(static_cast<std::size_t>(integer(r->element[1])));
+  }
+  wake_.notify_all();
+  return id;
+}
+
+namespace {
+
+JobState state_from(const std::string& s) {
+  for (JobState st : {JobState::queued, JobState::running, JobState::succeeded, JobState::failed, JobState::cancelled})
+    if (s == to_string(st)) return st;
+  return JobState::failed;
+}
+
+// The progress member as kept in job:{id} (what Job::snapshot reports), and back.
+std::string progress_text(const JobSnapshot& s) {
+  ordered_json p;
+  p["fraction"] = s.fraction;
+  p["stage"] = s.current_stage;
+  p["stages"] = ordered_json::array();
+  for (const StageProgress& st : s.stages)
+    p["stages"].push_back({{"stage", st.stage}, {"fraction", st.fraction}, {"done", st.done}, {"ms", st.ms}});
+  return p.dump();
+}
+
+void read_progress(const std::string& text, JobSnapshot& s) {
+  if (text.empty()) return;
+  const json p = json::parse(text, nullptr, false);
+  if (!p.is_object()) return;
+  s.fraction = p.value("fraction", 0.0);
+  if (s.state == JobState::running) s.current_stage = p.value("stage", "");
+  if (p.contains("stages") && p["stages"].is_array())
+    for (const json& st : p["stages"])
+      s.stages.push_back(StageProgress{st.value("stage", ""), st.value("fraction", 0.0), st.value("done", false),
+                                       st.value("ms", 0.0)});
+}
+
+std::map<std::string, std::string> hash_of(const redisReply* r) {
+  std::map<std::string, std::string> out;
+  if (!is_array(r)) return out;
+  for (std::size_t i = 0; i + 1 < r->elements; i += 2) out[str(r->element[i])] = str(r->element[i + 1]);
+  return out;
+}
+
+}  // namespace
+
+RedisJobs::Found RedisJobs::find(const std::string& id) {
+  Lease redis(*this);
+  Found f;
+  const auto h = hash_of(redis({"HGETALL", job_key(id)}).get());
+  if (h.count("state")) {
+    f.lookup = JobStore::Lookup::found;
+    JobSnapshot& s = f.snapshot;
+    s.id = id;
+    s.state = state_from(h.at("state"));
+    auto ms = [&](const char* k) -> long long { return h.count(k) ? std::atoll(h.at(k).c_str()) : 0; };
+    s.created_at = from_ms(ms("created"));
+    s.started = s.state != JobState::queued && ms("started") != 0;
+    s.started_at = from_ms(ms("started"));
+    s.finished = is_final(s.state);
+    s.finished_at = from_ms(ms("finished"));
+    s.cancel_requested = h.count("cancel") && h.at("cancel") == "1";
+    if (h.count("progress")) read_progress(h.at("progress"), s);
+    if (s.state == JobState::succeeded) s.fraction = 1;
+    if (h.count("problem") && !h.at("problem").empty()) {
+      ordered_json p = ordered_json::parse(h.at("problem"), nullptr, false);
+      if (!p.is_discarded()) s.problem = std::move(p);
+    }
+    s.result_bytes = static_cast<std::size_t>(ms("result_bytes"));
+    return f;
+  }
+  const std::string gone = str(redis({"GET", gone_key(id)}).get());
+  if (!gone.empty()) {
+    f.lookup = JobStore::Lookup::gone;
+    f.gone_reason = gone;
+  }
+  return f;
+}
+
+RedisJobs::Cancel RedisJobs::cancel(const std::string& id, const std::string& problem_json) {
+  Lease redis(*this);
+  const std::string before = str(redis({"EVAL", kCancel, "1", job_key(id), problem_json, std::to_string(now_ms())}).get());
+  if (before == "missing") {
+    return str(redis({"GET", gone_key(id)}).get()).empty() ? Cancel::unknown : Cancel::gone;
+  }
+  if (before == "queued") {
+    const std::string entry = str(redis({"HGET", job_key(id), "entry"}).get());
+    if (!entry.empty()) {
+      redis({"XACK", kStream, kGroup, entry});
+      redis({"XDEL", kStream, entry});
+    }
+    const std::string keep = std::to_string(ttl_.count());
+    redis({"PEXPIRE", job_key(id), keep});
+    redis({"PEXPIRE", req_key(id), keep});
+    redis({"SET", gone_key(id), "expired", "PX", std::to_string(ttl_.count() + kTombstoneMs)});
+    return Cancel::cancelled_queued;
+  }
+  if (before == "running") return Cancel::cancel_requested;
+  // Finished: DELETE drops it.
+  redis({"DEL", job_key(id), req_key(id), result_key(id), rendering_key(id, "preview"), rendering_key(id, "gltf:glb"),
+         rendering_key(id, "gltf:gltf")});
+  redis({"SET", gone_key(id), "deleted", "PX", std::to_string(kTombstoneMs)});
+  {
+    std::lock_guard<std::mutex> lock(cache_mutex_);
+    cache_.erase(std::remove_if(cache_.begin(), cache_.end(), [&](const auto& e) { return e.first == id; }),
+                 cache_.end());
+  }
+  return Cancel::removed;
+}
+
+std::shared_ptr<const std::string> RedisJobs::result_json(const std::string& id) {
+  Lease redis(*this);
+  Reply r = redis({"GET", result_key(id)});
+  if (r->type != REDIS_REPLY_STRING) return nullptr;
+  return std::make_shared<const std::string>(r->str, r->len);
+}
+
+std::shared_ptr<const std::string> RedisJobs::rendering(const std::string& id, const std::string& kind) {
+  Lease redis(*this);
+  Reply r = redis({"GET", rendering_key(id, kind)});
+  if (r->type != REDIS_REPLY_STRING) return nullptr;
+  return std::make_shared<const std::string>(r->str, r->len);
+}
+
+void RedisJobs::keep_rendering(const std::string& id, const std::string& kind, const std::string& body) {
+  Lease redis(*this);
+  // As long as the job itself is kept.
+  const long long left = integer(redis({"PTTL", job_key(id)}).get());
+  if (left <= 0) return;
+  redis({"SET", rendering_key(id, kind), body, "PX", std::to_string(left)});
+}
+
+std::optional<StoredRequest> RedisJobs::stored_request(const std::string& id) {
+  Lease redis(*this);
+  auto h = hash_of(redis({"HGETALL", req_key(id)}).get());
+  if (!h.count("media_type")) return std::nullopt;
+  StoredRequest s;
+  s.media_type = h["media_type"];
+  s.body = h["body"];
+  for (const auto& [k, v] : h) {
+    if (k == "p:mesh") s.params.mesh = v;
+    else if (k == "p:primitive") s.params.primitive = v;
+    else if (k == "p:weld") s.params.weld = v;
+    else if (k == "p:boundary") s.params.boundary = v;
+    else if (k.rfind("part:", 0) == 0) s.parts[k.substr(5)].content = v;
+    else if (k.rfind("ptype:", 0) == 0) s.parts[k.substr(6)].content_type = v;
+  }
+  return s;
+}
+
+std::optional<RedisJobs::Local> RedisJobs::local_result(const std::string& id) {
+  std::lock_guard<std::mutex> lock(cache_mutex_);
+  for (const auto& [k, v] : cache_)
+    if (k == id) return v;
+  return std::nullopt;
+}
+
+bool RedisJobs::ready() {
+  try {
+    Lease redis(*this);
+    return str(redis({"PING"}).get()) == "PONG";
+  } catch (const QueueUnavailable&) {
+    return false;
+  }
+}
+
+long long RedisJobs::waiting() {
+  try {
+    Lease redis(*this);
+    long long n = integer(redis({"XLEN", kStream}).get());
+    try {
+      Reply p = redis({"XPENDING", kStream, kGroup});
+      if (is_array(p.get(), 1)) n -= integer(p->element[0]);
+    } catch (const ReplyError&) {  // no group yet: nothing pending
+    }
+    return std::max<long long>(n, 0);
+  } catch (const QueueUnavailable&) {
+    return -1;
+  }
+}
+
+// ---- the replica's side: taking jobs, running them, keeping their claims ----------------------------------
+
+void RedisJobs::fetch_loop() {
+  std::unique_ptr<RedisConnection> c;
+  std::chrono::milliseconds backoff{0};
+  bool group_ready = false;
+  auto pause = [&](std::chrono::milliseconds d) {
+    std::unique_lock<std::mutex> lock(wake_mutex_);
+    wake_.wait_for(lock, d, [this] { return stopping_.load(); });
+  };
+  // One entry of a stream reply ([id, [field, value ...]]): dispatched to the pool.
+  auto dispatch = [&](const redisReply* e) {
+    if (!is_array(e, 2) || !is_array(e->element[1])) return;
+    const std::string entry = str(e->element[0]);
+    std::string id;
+    const redisReply* fields = e->element[1];
+    for (std::size_t i = 0; i + 1 < fields->elements; i += 2)
+      if (str(fields->element[i]) == "id") id = str(fields->element[i + 1]);
+    if (id.empty()) {
+      c->command({"XACK", kStream, kGroup, entry});
+      c->command({"XDEL", kStream, entry});
+      return;
+    }
+    // Refused (a burst of synchronous work filled the pool): the entry stays pending and is taken over after
+    // the visibility timeout.
+    if (service_.pool.submit([this, entry, id] { run_job(entry, id); }) != WorkerPool::Submit::accepted)
+      service_.event(spdlog::level::warn, {{"event", "job_not_taken"}, {"job_id", id}});
+  };
+  while (!stopping_) {
+    if (!fetching_) {
+      pause(std::chrono::milliseconds(200));
+      continue;
+    }
+    try {
+      if (!c || c->broken()) {
+        c.reset();
+        group_ready = false;
+        c = connect();
+        if (backoff.count() > 0)
+          service_.event(spdlog::level::info, {{"event", "redis_reconnected"}, {"consumer", consumer_}});
+        backoff = std::chrono::milliseconds(0);
+      }
+      if (!group_ready) {
+        try {
+          c->command({"XGROUP", "CREATE", kStream, kGroup, "0", "MKSTREAM"});
+        } catch (const ReplyError&) {  // BUSYGROUP: it exists
+        }
+        group_ready = true;
+      }
+      if (!local_capacity()) {
+        pause(std::chrono::milliseconds(20));
+        continue;
+      }
+      // First the entries whose replica stopped renewing its claim, then new ones.
+      Reply claimed = c->command({"XAUTOCLAIM", kStream, kGroup, consumer_, std::to_string(visibility_.count()), "0-0",
+                                  "COUNT", "1"});
+      if (is_array(claimed.get(), 2) && is_array(claimed->element[1], 1)) {
+        ++reclaimed_;
+        service_.event(spdlog::level::warn, {{"event", "job_reclaimed"}, {"entry", str(claimed->element[1]->element[0]->element[0])}});
+        dispatch(claimed->element[1]->element[0]);
+        continue;
+      }
+      Reply fresh = c->command({"XREADGROUP", "GROUP", kGroup, consumer_, "COUNT", "1", "BLOCK", "500", "STREAMS",
+                                kStream, ">"});
+      if (is_array(fresh.get(), 1) && is_array(fresh->element[0], 2) && is_array(fresh->element[0]->element[1], 1))
+        dispatch(fresh->element[0]->element[1]->element[0]);
+    } catch (const ReplyError& e) {
+      // NOGROUP after Redis lost its data (a restart without persistence): make the group again.
+      group_ready = false;
+      note_error("fetch", e.what());
+      pause(std::chrono::milliseconds(100));
+    } catch (const QueueUnavailable& e) {
+      c.reset();
+      note_error("fetch", e.what());
+      backoff = std::clamp(backoff * 2, std::chrono::milliseconds(100), std::chrono::milliseconds(5000));
+      pause(backoff);
+    }
+  }
+}
+
+void RedisJobs::heartbeat_loop() {
+  // Often enough that a live replica's claim never reaches the visibility timeout, and that a DELETE is seen
+  // within a second.
+  const auto period = std::clamp(visibility_ / 4, std::chrono::milliseconds(50), std::chrono::milliseconds(1000));
+  std::unique_ptr<RedisConnection> c;
+  while (!stopping_) {
+    {
+      std::unique_lock<std::mutex> lock(wake_mutex_);
+      wake_.wait_for(lock, period, [this] { return stopping_.load(); });
+    }
+    std::vector<std::pair<std::string, std::shared_ptr<Running>>> jobs;
+    {
+      std::lock_guard<std::mutex> lock(running_mutex_);
+      jobs.assign(running_.begin(), running_.end());
+    }
+    if (jobs.empty()) continue;
+    try {
+      if (!c || c->broken()) c = connect();
+      for (const auto& [id, r] : jobs) {
+        c->command({"XCLAIM", kStream, kGroup, consumer_, "0", r->entry, "JUSTID"});
+        if (str(c->command({"HGET", job_key(id), "cancel"}).get()) == "1") r->job.request_cancel(CancelReason::client);
+        c->command({"HSET", job_key(id), "progress", progress_text(r->job.snapshot())});
+      }
+    } catch (const QueueUnavailable& e) {
+      c.reset();
+      note_error("heartbeat", e.what());
+    }
+  }
+}
+
+void RedisJobs::ack(RedisConnection& c, const std::string& entry) {
+  c.command({"XACK", kStream, kGroup, entry});
+  c.command({"XDEL", kStream, entry});
+}
+
+void RedisJobs::finish(RedisConnection& c, const std::string& entry, const std::string& id, const JobSnapshot& s,
+                       const std::string* result) {
+  c.command({"EVAL", kFinish, "4", job_key(id), result_key(id), req_key(id), gone_key(id), to_string(s.state),
+             s.problem ? s.problem->dump(-1, ' ', false, ordered_json::error_handler_t::replace) : std::string(),
+             result ? *result : std::string(), std::to_string(now_ms()), std::to_string(s.result_bytes),
+             progress_text(s), std::to_string(ttl_.count()), std::to_string(ttl_.count() + kTombstoneMs)});
+  ack(c, entry);
+}
+
+void RedisJobs::run_job(const std::string& entry, const std::string& id) {
+  std::shared_ptr<Running> running;
+  try {
+    Lease redis(*this);
+    Reply started = redis({"EVAL", kStart, "1", job_key(id), std::to_string(now_ms()), consumer_});
+    const std::string verdict = is_array(started.get(), 2) ? str(started->element[0]) : "missing";
+    if (verdict != "run") {  // finished, cancelled while queued, or no longer held
+      ack(redis.connection(), entry);
+      return;
+    }
+    const long long attempts = integer(started->element[1]);
+    auto h = hash_of(redis({"HGETALL", job_key(id)}).get());
+    running = std::make_shared<Running>(entry, id);
+    Job& job = running->job;
+    job.mark_running();
+    const long long deadline_ms = std::atoll(h["deadline"].c_str());
+    job.token().set_deadline(std::chrono::steady_clock::now() + std::chrono::milliseconds(deadline_ms - now_ms()));
+    if (h["cancel"] == "1") job.request_cancel(CancelReason::client);
+    TestHooks hooks;
+    hooks.delay_ms = std::atoll(h["delay_ms"].c_str());
+    hooks.fault = h["fault"];
+    std::optional<StoredRequest> stored = stored_request(id);
+    {
+      std::lock_guard<std::mutex> lock(running_mutex_);
+      running_[id] = running;
+    }
+    service_.event(spdlog::level::info, {{"event", "job_started"}, {"job_id", id}, {"attempt", attempts}, {"consumer", consumer_}});
+    std::shared_ptr<const std::string> text;
+    Local local;
+    try {
+      if (attempts > kMaxAttempts)
+        throw InternalError("the job was started " + std::to_string(attempts - 1) +
+                            " times and its replica stopped each time before it finished");
+      if (!stored) throw InternalError("the job's request is no longer held by the shared queue");
+      job.token().check();
+      apply_hooks(hooks, job.token());
+      codec::LoadedRequest loaded = codec::load_request(stored->input());
+      MapOutcome m = run_map(loaded.request, job.token(), [&job](Stage st, double f) { job.report(st, f); },
+                             service_.metrics);
+      if (m.json->size() > service_.config.max_result_bytes) {
+        job.fail(JobState::failed,
+                 problem("result_too_large", "the result has " + std::to_string(m.json->size()) +
+                                                 " bytes; the shared queue keeps at most " +
+                                                 std::to_string(service_.config.max_result_bytes)));
+      } else {
+        text = m.json;
+        local.result = m.result;
+        if (loaded.asset) local.asset = std::make_shared<const gltf::Asset>(std::move(*loaded.asset));
+        job.succeed(m.json, m.result);
+      }
+    } catch (...) {
+      const CancelReason reason = job.cancel_reason();
+      ordered_json p = current_exception_problem(InputKind::parametrize, reason, service_.config.deadline_seconds);
+      job.fail(reason == CancelReason::none ? JobState::failed : JobState::cancelled, std::move(p));
+    }
+    {
+      std::lock_guard<std::mutex> lock(running_mutex_);
+      running_.erase(id);
+    }
+    if (job.cancel_reason() == CancelReason::shutdown) {
+      // This replica stops: another one runs the job.
+      redis({"EVAL", kHandBack, "2", kStream, job_key(id), entry, id});
+      service_.event(spdlog::level::info, {{"event", "job_handed_back"}, {"job_id", id}});
+      return;
+    }
+    const JobSnapshot s = job.snapshot();
+    // Redis may be restarting: a few tries, then the entry stays pending and is taken over (and run again)
+    // once Redis is back.
+    for (int attempt = 0;; ++attempt) {
+      try {
+        if (attempt == 0) {
+          finish(redis.connection(), entry, id, s, text.get());
+        } else {
+          Lease again(*this);
+          finish(again.connection(), entry, id, s, text.get());
+        }
+        break;
+      } catch (const ReplyError&) {
+        throw;
+      } catch (const QueueUnavailable& e) {
+        if (attempt >= 8 || stopping_) throw;
+        std::this_thread::sleep_for(std::chrono::milliseconds(250LL << std::min(attempt, 3)));
+      }
+    }
+    if (text) {
+      std::lock_guard<std::mutex> lock(cache_mutex_);
+      cache_.emplace_back(id, local);
+      if (cache_.size() > kLocalCache) cache_.erase(cache_.begin());
+    }
+    service_.metrics.count_job_finished(to_string(s.state));
+    service_.event(spdlog::level::info, {{"event", "job_finished"},
+                                         {"job_id", id},
+                                         {"state", to_string(s.state)},
+                                         {"code", s.problem ? s.problem->value("code", "") : ""},
+                                         {"result_bytes", s.result_bytes}});
+  } catch (const QueueUnavailable& e) {
+    if (running) {
+      std::lock_guard<std::mutex> lock(running_mutex_);
+      running_.erase(id);
+    }
+    note_error("job", e.what());
+    service_.event(spdlog::level::warn, {{"event", "job_left_pending"}, {"job_id", id}, {"detail", e.what()}});
+  }
+}
+
+void RedisJobs::hand_back_running() {
+  std::lock_guard<std::mutex> lock(running_mutex_);
+  for (auto& [id, r] : running_) r->job.request_cancel(CancelReason::shutdown);
+}
+
+}  // namespace lipmap::server
