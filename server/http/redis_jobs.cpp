@@ -87,6 +87,13 @@ elseif s == 'running' then
 end
 return s)";
 
+// KEYS job; ARGV progress. A running job's progress (never written on a job that finished or was dropped
+// meanwhile, which would leave a key without expiry); returns its cancel flag.
+const char* kBeat = R"(
+if redis.call('HGET', KEYS[1], 'state') ~= 'running' then return '' end
+redis.call('HSET', KEYS[1], 'progress', ARGV[1])
+return redis.call('HGET', KEYS[1], 'cancel') or '')";
+
 // KEYS stream, job; ARGV entry, id. A running job goes back to the queue (its replica shuts down).
 const char* kHandBack = R"(
 local s = redis.call('HGET', KEYS[2], 'state')
@@ -366,8 +373,16 @@ std::string RedisJobs::submit(const StoredRequest& request, SysClock::time_point
     redis({"DEL", req_key(id)});
     throw SharedQueueFull(static_cast<std::size_t>(integer(r->element[1])));
   }
-  wake_.notify_all();
+  wake();
   return id;
+}
+
+void RedisJobs::wake() {
+  {
+    std::lock_guard<std::mutex> lock(wake_mutex_);
+    ++wakeups_;
+  }
+  wake_.notify_all();
 }
 
 namespace {
@@ -551,9 +566,11 @@ void RedisJobs::fetch_loop() {
   std::unique_ptr<RedisConnection> c;
   std::chrono::milliseconds backoff{0};
   bool group_ready = false;
+  // Waits for d, or until a worker frees up or a job is submitted here (wake()).
   auto pause = [&](std::chrono::milliseconds d) {
     std::unique_lock<std::mutex> lock(wake_mutex_);
-    wake_.wait_for(lock, d, [this] { return stopping_.load(); });
+    const std::uint64_t seen = wakeups_;
+    wake_.wait_for(lock, d, [&] { return stopping_.load() || wakeups_ != seen; });
   };
   // One entry of a stream reply ([id, [field, value ...]]): dispatched to the pool.
   auto dispatch = [&](const redisReply* e) {
@@ -595,7 +612,7 @@ void RedisJobs::fetch_loop() {
         group_ready = true;
       }
       if (!local_capacity()) {
-        pause(std::chrono::milliseconds(20));
+        pause(std::chrono::milliseconds(2));  // a worker is about to be free (wake() comes just before)
         continue;
       }
       // First the entries whose replica stopped renewing its claim, then new ones.
@@ -645,8 +662,8 @@ void RedisJobs::heartbeat_loop() {
       if (!c || c->broken()) c = connect();
       for (const auto& [id, r] : jobs) {
         c->command({"XCLAIM", kStream, kGroup, consumer_, "0", r->entry, "JUSTID"});
-        if (str(c->command({"HGET", job_key(id), "cancel"}).get()) == "1") r->job.request_cancel(CancelReason::client);
-        c->command({"HSET", job_key(id), "progress", progress_text(r->job.snapshot())});
+        if (str(c->command({"EVAL", kBeat, "1", job_key(id), progress_text(r->job.snapshot())}).get()) == "1")
+          r->job.request_cancel(CancelReason::client);
       }
     } catch (const QueueUnavailable& e) {
       c.reset();
@@ -677,6 +694,7 @@ void RedisJobs::run_job(const std::string& entry, const std::string& id) {
     const std::string verdict = is_array(started.get(), 2) ? str(started->element[0]) : "missing";
     if (verdict != "run") {  // finished, cancelled while queued, or no longer held
       ack(redis.connection(), entry);
+      wake();
       return;
     }
     const long long attempts = integer(started->element[1]);
@@ -732,6 +750,7 @@ void RedisJobs::run_job(const std::string& entry, const std::string& id) {
       // This replica stops: another one runs the job.
       redis({"EVAL", kHandBack, "2", kStream, job_key(id), entry, id});
       service_.event(spdlog::level::info, {{"event", "job_handed_back"}, {"job_id", id}});
+      wake();
       return;
     }
     const JobSnapshot s = job.snapshot();
@@ -758,6 +777,7 @@ void RedisJobs::run_job(const std::string& entry, const std::string& id) {
       cache_.emplace_back(id, local);
       if (cache_.size() > kLocalCache) cache_.erase(cache_.begin());
     }
+    wake();  // this worker is free: the fetcher may take the next job now
     service_.metrics.count_job_finished(to_string(s.state));
     service_.event(spdlog::level::info, {{"event", "job_finished"},
                                          {"job_id", id},
@@ -769,6 +789,7 @@ void RedisJobs::run_job(const std::string& entry, const std::string& id) {
       std::lock_guard<std::mutex> lock(running_mutex_);
       running_.erase(id);
     }
+    wake();
     note_error("job", e.what());
     service_.event(spdlog::level::warn, {{"event", "job_left_pending"}, {"job_id", id}, {"detail", e.what()}});
   }

@@ -131,6 +131,7 @@ private:
               const std::string* result);
   void ack(RedisConnection& c, const std::string& entry);
   bool local_capacity() const;
+  void wake();  // the fetcher looks again at once
   void note_error(const std::string& where, const std::string& what);
 
   Service& service_;
@@ -152,6 +153,7 @@ private:
   std::atomic<std::uint64_t> reclaimed_{0}, errors_{0};
   std::mutex wake_mutex_;
   std::condition_variable wake_;
+  std::uint64_t wakeups_ = 0;  // with wake_mutex_
   std::thread fetcher_, heartbeat_;
 };
 
