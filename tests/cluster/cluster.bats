@@ -36,6 +36,9 @@ body_file() {  # body_file I: the body of job I
     same_answer "$answer" "$(reference "$(( i % ${#bodies[@]} ))" "$(body_file "$i")")"
     [ "$i" -ge 5 ] || check_map "$(body_file "$i")"
   done
+  local ran=""
+  for n in 1 2 3; do ran+=" replica $n: $(grep -c '"event":"job_started"' "$BATS_FILE_TMPDIR/replica$n.log")"; done
+  echo "# jobs started by$ran" >&3
   # Every replica answered some of those polls, and the previews render on any of them.
   for n in 1 2 3; do
     url="REPLICA${n}_URL"
@@ -62,8 +65,10 @@ body_file() {  # body_file I: the body of job I
   wait_until 30 bash -c "curl -s '$NGINX_URL/v1/jobs/$long' | jq -e '.state == \"running\"' >/dev/null"
   victim="$(running_replica_of_long)"
   stop_replica "$victim" KILL
+  local killed_at=$SECONDS
   # Within the visibility timeout plus the job's run time (bounded generously: no timing is asserted).
   [ "$(wait_final "$NGINX_URL" "$long" 60)" = succeeded ]
+  echo "# replica $victim killed; its job succeeded elsewhere $((SECONDS - killed_at)) s later (visibility ${CLUSTER_VISIBILITY} s + 4 s run)" >&3
   call GET "$NGINX_URL/v1/jobs/$long/result"
   expect 200
   same_answer "$answer" "$(reference 2 "$(body_file 2)")"
@@ -153,19 +158,22 @@ running_replica_of_long() {
     url="REPLICA${n}_URL"
     wait_until 30 curl -sf --max-time 2 "${!url}/readyz" -o /dev/null
   done
-  local state
+  local state resumed=0 ended=0
   for i in 0 1 2 3 4 5; do
     state="$(wait_final "$NGINX_URL" "${ids[$i]}" 90)"
     if [ "$state" = succeeded ]; then
+      resumed=$((resumed + 1))
       call GET "$NGINX_URL/v1/jobs/${ids[$i]}/result"
       expect 200
       same_answer "$answer" "$(reference "$i" "$(body_file "$i")")"
     else
       # A job that could not resume says why.
+      ended=$((ended + 1))
       call -s job.schema.json GET "$NGINX_URL/v1/jobs/${ids[$i]}"
       [ -n "$(jq -r '.error.code // empty' "$answer")" ]
     fi
   done
+  echo "# after the Redis restart: $resumed jobs succeeded, $ended ended with a problem" >&3
   for n in 1 2 3; do replica_alive "$n"; done
   # Each replica counted Redis errors (and says so on /metrics), and is ready again.
   for n in 1 2 3; do
