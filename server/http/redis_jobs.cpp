@@ -155,9 +155,7 @@ RedisUrl parse_redis_url(const std::string& url) {
 namespace {
 
 struct ReplyDeleter {
-  void operator()(redisReply* r) const {
-    if (r) freeReplyObject(r);
-  }
+  void operator()(redisReply* r) const { if (r) freeReplyObject(r); }
 };
 using Reply = std::unique_ptr<redisReply, ReplyDeleter>;
 
@@ -202,9 +200,7 @@ public:
     redisSetTimeout(c_, tv);
     if (url.db != 0) command({"SELECT", std::to_string(url.db)});
   }
-  ~RedisConnection() {
-    if (c_) redisFree(c_);
-  }
+  ~RedisConnection() { if (c_) redisFree(c_); }
   RedisConnection(const RedisConnection&) = delete;
   RedisConnection& operator=(const RedisConnection&) = delete;
 
@@ -360,9 +356,8 @@ std::string RedisJobs::submit(const StoredRequest& request, SysClock::time_point
   param("primitive", request.params.primitive);
   param("weld", request.params.weld);
   param("boundary", request.params.boundary);
-  for (const auto& [name, part] : request.parts) {
+  for (const auto& [name, part] : request.parts)
     hset.insert(hset.end(), {"part:" + name, part.content, "ptype:" + name, part.content_type});
-  }
   redis(hset);
   redis({"PEXPIRE", req_key(id), std::to_string(keep)});
   Reply r = redis({"EVAL", kSubmit, "2", kStream, job_key(id), std::to_string(service_.config.queue_capacity), id,
