@@ -11,6 +11,7 @@
 //   triangulation          classify + target mesh
 //   two harmonic maps      intermediate_maps (both maps onto the disk; harmonic = cotangent weights)
 //   composition + refine   compose + refine
+//   untangle + optimize    the stages after the paper's (engine/untangle.h, engine/optimize.h)
 //   total                  the whole call (also validate, verify and quality, which the paper's table has not)
 // and the peak resident memory of the process that ran the row (each row runs in its own forked child, so
 // ru_maxrss is that row's peak). In the same run, for each mesh: CGAL's Tutte parameterization
@@ -147,7 +148,7 @@ struct Row {
   std::string error;
   std::string verdict = "-";
   long long vertices = 0, triangles = 0, boundary = 0, inserted = -1, flipped_before = -1;
-  double triangulation = -1, maps = -1, compose_refine = -1, total = -1, other = -1;
+  double triangulation = -1, maps = -1, compose_refine = -1, untangle_optimize = -1, total = -1, other = -1;
   long rss_kb = -1;
   std::string source_solution = "-", target_solution = "-";
 };
@@ -163,8 +164,8 @@ Row run_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs, double 
   lipmap::RawBoundary b;
   b.positions = t.positions;
   if (t.rotation_indices) b.rotation_indices = std::vector<long long>(t.rotation_indices->begin(), t.rotation_indices->end());
-  lipmap::ParametrizeOptions options;  // harmonic, refine, density 1: the paper's setting
-  std::vector<double> tri, maps, cr, total, other;
+  lipmap::ParametrizeOptions options;  // the defaults: harmonic, refine, density 1 (the paper), untangle, optimize mips
+  std::vector<double> tri, maps, cr, uo, total, other;
   lipmap::CancelToken token;
   token.set_deadline(Clock::now() + std::chrono::milliseconds(static_cast<long long>(budget_s * 1000)));
   for (int r = 0; r < runs; ++r) {
@@ -174,6 +175,7 @@ Row run_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs, double 
       tri.push_back(s.classify + s.target_mesh);
       maps.push_back(s.intermediate_maps);
       cr.push_back(s.compose + s.refine);
+      uo.push_back(s.untangle + s.optimize);
       total.push_back(s.total);
       other.push_back(s.validate + s.verify + s.quality);
       row.inserted = static_cast<long long>(res.map.inserted.size());
@@ -195,6 +197,7 @@ Row run_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs, double 
   row.triangulation = median(tri);
   row.maps = median(maps);
   row.compose_refine = median(cr);
+  row.untangle_optimize = median(uo);
   row.total = median(total);
   row.other = median(other);
   struct rusage ru {};
@@ -249,10 +252,10 @@ std::string encode(const Row& r) {
   std::string err = r.error;
   for (char& c : err)
     if (c == '\t' || c == '\n') c = ' ';
-  std::snprintf(buf, sizeof buf, "row\t%s\t%lld\t%lld\t%lld\t%lld\t%lld\t%.6f\t%.6f\t%.6f\t%.6f\t%.6f\t%ld\t%s\t%s\t%s", r.verdict.c_str(),
+  std::snprintf(buf, sizeof buf, "row\t%s\t%lld\t%lld\t%lld\t%lld\t%lld\t%.6f\t%.6f\t%.6f\t%.6f\t%.6f\t%ld\t%s\t%s\t%s\t%.6f", r.verdict.c_str(),
                 r.vertices, r.triangles, r.boundary, r.inserted, r.flipped_before, r.triangulation, r.maps,
                 r.compose_refine, r.total, r.other, r.rss_kb, r.source_solution.c_str(), r.target_solution.c_str(),
-                err.substr(0, 400).c_str());
+                err.substr(0, 400).c_str(), r.untangle_optimize);
   return buf;
 }
 
@@ -270,7 +273,7 @@ std::vector<std::string> split(const std::string& s) {
 Row decode(const std::string& line) {
   Row r;
   const std::vector<std::string> f = split(line);
-  if (f.size() < 16 || f[0] != "row") {
+  if (f.size() < 17 || f[0] != "row") {
     r.error = f.size() >= 2 ? f[1] : line;
     return r;
   }
@@ -289,6 +292,7 @@ Row decode(const std::string& line) {
   r.source_solution = f[13];
   r.target_solution = f[14];
   r.error = f[15];
+  r.untangle_optimize = std::atof(f[16].c_str());
   return r;
 }
 
@@ -331,14 +335,14 @@ int main(int argc, char** argv) {
 
   struct utsname u {};
   uname(&u);
-  std::printf("bench_pipeline: lipmap::parametrize (harmonic, refine, target density 1) vs CGAL Tutte "
+  std::printf("bench_pipeline: lipmap::parametrize (defaults: harmonic, refine, target density 1, untangle, optimize mips) vs CGAL Tutte "
               "(Barycentric_mapping_parameterizer_3 + Circular_border_arc_length_parameterizer_3)\n");
   std::printf("machine: %s %s %s %s; %u hardware threads (nproc); %s\n", u.sysname, u.nodename, u.release, u.machine,
               std::thread::hardware_concurrency(), cpu_model().c_str());
   std::printf("median of %d run%s per row (budget %.0f s per row); times in ms; peak = max resident set of the row's "
               "own process\n", runs, runs == 1 ? "" : "s", budget_s);
-  std::printf("\n%-26s %-11s %-24s %7s %7s %6s %5s %9s %9s %9s %9s %8s %8s %9s %7s\n", "model", "target", "verdict",
-              "#vert", "#tri", "#bnd", "#ins", "triang.", "2 maps", "comp+ref", "total", "other", "peak MB",
+  std::printf("\n%-26s %-11s %-24s %7s %7s %6s %5s %9s %9s %9s %9s %9s %8s %8s %9s %7s\n", "model", "target", "verdict",
+              "#vert", "#tri", "#bnd", "#ins", "triang.", "2 maps", "comp+ref", "unt+opt", "total", "other", "peak MB",
               "CGAL Tut", "ratio");
   std::printf("%s\n", std::string(180, '-').c_str());
 
@@ -382,17 +386,17 @@ int main(int argc, char** argv) {
       }
       char ratio[32] = "-";
       if (cgal_ms > 0 && r.total > 0) std::snprintf(ratio, sizeof ratio, "%.2f", r.total / cgal_ms);
-      std::printf("%-26s %-11s %-24s %7lld %7lld %6lld %5lld %9s %9s %9s %9s %8s %8.1f %9s %7s\n", name.c_str(),
+      std::printf("%-26s %-11s %-24s %7lld %7lld %6lld %5lld %9s %9s %9s %9s %9s %8s %8.1f %9s %7s\n", name.c_str(),
                   lipmap::targetgen::kind_name(t.kind), r.verdict.c_str(), r.vertices, r.triangles, r.boundary,
                   r.inserted, cell_ms(r.triangulation).c_str(), cell_ms(r.maps).c_str(),
-                  cell_ms(r.compose_refine).c_str(), cell_ms(r.total).c_str(), cell_ms(r.other).c_str(),
+                  cell_ms(r.compose_refine).c_str(), cell_ms(r.untangle_optimize).c_str(), cell_ms(r.total).c_str(), cell_ms(r.other).c_str(),
                   r.rss_kb / 1024.0, cell_ms(cgal_ms).c_str(), ratio);
       std::fflush(stdout);
     }
     if (!cgal_error.empty()) std::printf("%-26s CGAL Tutte failed: %s\n", name.c_str(), cgal_error.c_str());
   }
   std::printf("\ncolumns: triang. = classify + target mesh; 2 maps = both intermediate maps onto the disk; comp+ref = "
-              "compose + refine; total = the whole parametrize call; other = validate + verify + quality (inside "
+              "compose + refine; unt+opt = untangle + optimize; total = the whole parametrize call; other = validate + verify + quality (inside "
               "total); CGAL Tut = CGAL's Tutte map of the same mesh (parameterize() only); ratio = total / CGAL Tut\n");
   return 0;
 }

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <string>
 
 #include "engine/compose.h"
 #include "engine/target_mesh.h"
@@ -30,6 +31,12 @@ auto run_stage(Stage stage, double& slot, const CancelToken* cancel, const Progr
 void check_options(const ParametrizeOptions& options) {
   if (!(std::isfinite(options.target_density) && options.target_density > 0 && options.target_density <= 100))
     throw InputError("invalid_option", "options.target_density must be a number in (0, 100]", "option");
+  if (!(options.max_iterations >= 0 && options.max_iterations <= kMaxOptimizeIterations))
+    throw InputError("invalid_option",
+                     "options.max_iterations must be an integer in [0, " + std::to_string(kMaxOptimizeIterations) + "]",
+                     "option");
+  if (!(std::isfinite(options.time_budget_ms) && options.time_budget_ms >= 0))
+    throw InputError("invalid_option", "options.time_budget_ms must be a finite number >= 0", "option");
 }
 
 // ---- scale normalization --------------------------------------------------------------------------
@@ -90,6 +97,14 @@ void to_caller_scale(RefinedMap& map, const DiskMesh& caller_mesh, const std::ve
   for (std::size_t k = 0; k < loop.size(); ++k) map.uv[loop[k]] = caller_polygon.vertices[k];
 }
 
+// The shoelace area of the polygon: the area of the immersed disk (each point counted with its winding
+// number), the total uv area of any map with that boundary.
+double signed_area(const std::vector<Point2>& p) {
+  double a = 0;
+  for (std::size_t i = 0, n = p.size(); i < n; ++i) a += p[i].x * p[(i + 1) % n].y - p[(i + 1) % n].x * p[i].y;
+  return 0.5 * a;
+}
+
 void require_bijective(const DiskMap& map, const char* which) {
   if (map.bijective()) return;
   throw InternalError(std::string("the intermediate map of the ") + which + " onto the disk has " +
@@ -105,7 +120,9 @@ const char* to_string(Stage stage) {
     case Stage::target_mesh: return "target_mesh";
     case Stage::intermediate_maps: return "intermediate_maps";
     case Stage::compose: return "compose";
+    case Stage::untangle: return "untangle";
     case Stage::refine: return "refine";
+    case Stage::optimize: return "optimize";
     case Stage::verify: return "verify";
     case Stage::quality: return "quality";
   }
@@ -174,12 +191,27 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
     return c;
   });
 
+  // Untangle the unrefined map when it folds; refinement (paper 4) only when that fails (engine/untangle.h).
+  if (options.refine && options.untangle) {
+    out.untangling = run_stage(Stage::untangle, time.untangle, cancel, progress, [&] {
+      return untangle(work_mesh, input.boundary.loop, work_polygon, out.classification.rotation_indices,
+                      composition.uv, cancel);
+    });
+  }
   out.map = run_stage(Stage::refine, time.refine, cancel, progress, [&] {
-    return refine(work_mesh, input.boundary.loop, out.classification.rotation_indices, source_disk, target,
-                  disk.target.uv, composition, options.refine, cancel);
+    const bool needed = options.refine && !out.untangling.succeeded;
+    RefinedMap m = refine(work_mesh, input.boundary.loop, out.classification.rotation_indices, source_disk, target,
+                          disk.target.uv, composition, needed, cancel);
+    if (out.untangling.succeeded) m.uv = std::move(out.untangling.uv);
+    return m;
   });
   // Reported as the paper's "flipped before refinement": the composed map's flips, before relocation.
   out.map.flipped_before_refinement = out.relocation.flipped_before;
+  if (options.refine) {
+    out.optimization = run_stage(Stage::optimize, time.optimize, cancel, progress, [&] {
+      return optimize_map(work_mesh, input.boundary.loop, signed_area(work_polygon.vertices), out.map, options, cancel);
+    });
+  }
   // Quality is scale-invariant: measured at the working scale, where areas neither overflow nor underflow.
   std::vector<Point3> work_vertices = out.map.vertices;
   std::vector<Point2> work_uv = out.map.uv;

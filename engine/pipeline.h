@@ -1,5 +1,5 @@
 // The whole engine as one call (docs/architecture.md): validate -> classify -> target mesh -> intermediate
-// maps -> compose -> refine -> verify -> quality. Each stage is timed; the cancel token is checked between
+// maps -> compose -> untangle -> refine -> optimize -> verify -> quality. Each stage is timed; the cancel token is checked between
 // stages and inside long loops; progress is reported by stage. No transport here: the CLI and the HTTP
 // server both call parametrize().
 #pragma once
@@ -13,15 +13,19 @@
 #include "engine/disk_mesh.h"
 #include "engine/error.h"
 #include "engine/intermediate_map.h"
+#include "engine/optimize.h"
 #include "engine/parametrize_options.h"
 #include "engine/quality.h"
 #include "engine/refine.h"
 #include "engine/relocate.h"
+#include "engine/untangle.h"
 #include "engine/verify.h"
 
 namespace lipmap {
 
-enum class Stage { validate, classify, target_mesh, intermediate_maps, compose, refine, verify, quality };
+enum class Stage {
+  validate, classify, target_mesh, intermediate_maps, compose, untangle, refine, optimize, verify, quality
+};
 const char* to_string(Stage stage);
 
 // Called at the start of every stage (fraction 0) and when it ends (fraction 1); long stages may report
@@ -29,8 +33,8 @@ const char* to_string(Stage stage);
 using ProgressFn = std::function<void(Stage stage, double fraction)>;
 
 struct StageTimings {  // milliseconds
-  double validate = 0, classify = 0, target_mesh = 0, intermediate_maps = 0, compose = 0, refine = 0,
-         verify = 0, quality = 0, total = 0;
+  double validate = 0, classify = 0, target_mesh = 0, intermediate_maps = 0, compose = 0, untangle = 0,
+         refine = 0, optimize = 0, verify = 0, quality = 0, total = 0;
 };
 
 struct TargetMeshSummary {
@@ -47,6 +51,8 @@ struct ParametrizeResult {
   DiskMapSolution source_map_solution = DiskMapSolution::primary, target_map_solution = DiskMapSolution::primary;
   Distortion distortion;
   Relocation relocation;            // flips of the composed map, and the vertices moved to undo some (compose)
+  Untangling untangling;            // flips before and after untangling; succeeded: no refinement was needed
+  Optimization optimization;        // energy and distortion before optimization (after: `distortion`)
   int flipped = 0;                  // non-positive uv triangles of the result: 0 whenever refine is on
   StageTimings timings;
 };

@@ -194,6 +194,13 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
     else if (args.method == "harmonic") input.overrides.method = MapMethod::harmonic;
     if (args.no_refine) input.overrides.refine = false;
     if (args.target_density > 0) input.overrides.target_density = args.target_density;
+    if (!args.optimize.empty()) {
+      OptimizeEnergy e{};
+      if (parse_optimize_energy(args.optimize, e)) input.overrides.optimize = e;  // CLI11 checked the name
+    }
+    if (args.max_iterations >= 0) input.overrides.max_iterations = args.max_iterations;
+    if (args.time_budget_ms >= 0) input.overrides.time_budget_ms = args.time_budget_ms;
+    if (args.no_untangle) input.overrides.untangle = false;
     codec::LoadedRequest loaded = codec::load_request(input);
     const RawMesh& mesh = loaded.request.mesh;
     const RawBoundary& boundary = loaded.request.boundary;
@@ -257,10 +264,13 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
       char buf[512];
       std::snprintf(buf, sizeof buf,
                     "lipmap: done: verdict %s, %zu vertices (%zu inserted), %zu triangles, %d flipped before "
-                    "refinement, %d flipped, distortion max %.4g mean %.4g, total %.1f ms\n",
+                    "refinement, %d flipped, distortion max %.4g mean %.4g (before optimization %.4g, %d "
+                    "steps), total %.1f ms\n",
                     codec::verdict_name(result.classification.verdict), result.map.vertices.size(),
                     result.map.inserted.size(), result.map.faces.size(), result.map.flipped_before_refinement,
-                    result.flipped, result.distortion.max, result.distortion.mean, result.timings.total);
+                    result.flipped, result.distortion.max, result.distortion.mean,
+                    result.optimization.ran ? result.optimization.before.mean : result.distortion.mean,
+                    result.optimization.iterations, result.timings.total);
       err << buf;
       err.flush();
     }
@@ -327,6 +337,18 @@ int run(int argc, const char* const* argv, std::istream& in, std::ostream& out, 
     map_cmd->add_option("--target-density", map_args.target_density,
                         "Target-mesh triangles relative to the source's (default 1)")
         ->check(CLI::PositiveNumber);
+    map_cmd->add_option("--optimize", map_args.optimize,
+                        "Distortion optimization after refinement: mips (default; conformal), symmetric_dirichlet "
+                        "or none")
+        ->check(CLI::IsMember({"none", "mips", "symmetric_dirichlet"}));
+    map_cmd->add_option("--max-iterations", map_args.max_iterations,
+                        "Optimization steps, at most (default 200; 0: no optimization)")
+        ->check(CLI::Range(0, kMaxOptimizeIterations));
+    map_cmd->add_option("--time-budget-ms", map_args.time_budget_ms,
+                        "Wall time of the optimization, at most (default: no budget)")
+        ->check(CLI::NonNegativeNumber);
+    map_cmd->add_flag("--no-untangle", map_args.no_untangle,
+                      "Refine whenever the composed map folds, without trying to untangle the unrefined mesh first");
     map_cmd->add_option("--preview", map_args.preview_file,
                         "Also write an SVG picture of the uv map (distortion colours, flips in red, target outline)");
     map_cmd->add_flag("--progress", map_args.progress, "Print each stage and a summary on standard error");

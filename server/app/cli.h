@@ -25,7 +25,8 @@ int run(int argc, const char* const* argv, std::istream& in, std::ostream& out, 
 int classify_command(const std::string& file, bool pretty, std::istream& in, std::ostream& out, std::ostream& err);
 
 // `lipmap map MESH --boundary BOUNDARY.json -o OUT [--method tutte|harmonic] [--no-refine]
-//  [--target-density D] [--preview OUT.svg] [--progress] [--pretty]`.
+//  [--target-density D] [--optimize none|mips|symmetric_dirichlet] [--max-iterations N] [--time-budget-ms MS]
+//  [--no-untangle] [--preview OUT.svg] [--progress] [--pretty]`.
 // MESH is .obj/.off/.ply/.stl (read_mesh_file), or .json holding a whole POST /v1/parametrize body (mesh,
 // boundary, options); then --boundary is optional and, when given, replaces the body's boundary, and the
 // command-line options override the body's. BOUNDARY.json is the body's "boundary" object. OUT is .obj
@@ -40,6 +41,10 @@ struct MapArgs {
   std::string method;          // empty: not given; else "tutte" or "harmonic"
   bool no_refine = false;
   double target_density = 0;   // <= 0: not given
+  std::string optimize;        // empty: not given; else an OptimizeEnergy name
+  int max_iterations = -1;     // < 0: not given
+  double time_budget_ms = -1;  // < 0: not given
+  bool no_untangle = false;
   std::string preview_file;    // empty: none
   bool progress = false;
   bool pretty = false;

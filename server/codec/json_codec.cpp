@@ -402,7 +402,7 @@ ParametrizeRequest parametrize_request_from_json(const json& body) {
 
   if (const json* o = optional_member(body, "options")) {
     const Path at = root / "options";
-    object(*o, at, {"method", "refine", "target_density"});
+    object(*o, at, {"method", "refine", "target_density", "untangle", "optimize", "max_iterations", "time_budget_ms"});
     if (const json* m = optional_member(*o, "method")) {
       const std::string& name = string(*m, at / "method");
       if (name == "tutte") request.options.method = MapMethod::tutte;
@@ -414,6 +414,19 @@ ParametrizeRequest parametrize_request_from_json(const json& body) {
       double density = number(*d, at / "target_density");
       if (!(density > 0)) fail("invalid_value", "target_density must be > 0, got " + d->dump(), at / "target_density");
       request.options.target_density = density;
+    }
+    if (const json* u = optional_member(*o, "untangle")) request.options.untangle = boolean(*u, at / "untangle");
+    if (const json* e = optional_member(*o, "optimize")) {
+      if (!parse_optimize_energy(string(*e, at / "optimize"), request.options.optimize))
+        fail("invalid_value", "optimize must be \"none\", \"mips\" or \"symmetric_dirichlet\", got " + e->dump(),
+             at / "optimize");
+    }
+    if (const json* n = optional_member(*o, "max_iterations"))
+      request.options.max_iterations = static_cast<int>(integer(*n, at / "max_iterations", 0, kMaxOptimizeIterations));
+    if (const json* b = optional_member(*o, "time_budget_ms")) {
+      const double ms = number(*b, at / "time_budget_ms");
+      if (!(ms >= 0)) fail("invalid_value", "time_budget_ms must be >= 0, got " + b->dump(), at / "time_budget_ms");
+      request.options.time_budget_ms = ms;
     }
   }
   return request;
@@ -433,7 +446,11 @@ ordered_json parametrize_request_to_json(const ParametrizeRequest& request) {
   if (request.boundary.rotation_indices) boundary["rotation_indices"] = *request.boundary.rotation_indices;
   out["options"] = {{"method", to_string(request.options.method)},
                     {"refine", request.options.refine},
-                    {"target_density", request.options.target_density}};
+                    {"target_density", request.options.target_density},
+                    {"untangle", request.options.untangle},
+                    {"optimize", to_string(request.options.optimize)},
+                    {"max_iterations", request.options.max_iterations},
+                    {"time_budget_ms", request.options.time_budget_ms}};
   return out;
 }
 
@@ -678,17 +695,37 @@ ordered_json parametrize_result_to_json(const lipmap::ParametrizeResult& r) {
                      {"refined_faces", m.refined_faces},
                      {"points_before_simplification", m.points_before_simplification},
                      {"simplification_rounds", m.simplification_rounds}};
-  ordered_json edges = ordered_json::array();
-  // The lower edge of every bin (the last bin is open above, its upper edge +inf is not written).
-  for (std::size_t i = 0; i < r.distortion.counts.size() && i < r.distortion.bin_edges.size(); ++i)
-    edges.push_back(finite_or_null(r.distortion.bin_edges[i]));
-  d["distortion"] = {{"max", finite_or_null(r.distortion.max)},
-                     {"mean", finite_or_null(r.distortion.mean)},
-                     {"histogram", {{"edges", std::move(edges)}, {"counts", r.distortion.counts}}}};
+  d["untangling"] = {{"attempted", r.untangling.attempted},
+                     {"succeeded", r.untangling.succeeded},
+                     {"flipped_before", r.untangling.flipped_before},
+                     {"flipped_after", r.untangling.flipped_after},
+                     {"rounds", r.untangling.rounds},
+                     {"iterations", r.untangling.iterations},
+                     {"outcome", r.untangling.outcome}};
+  // Distortion as {max, mean, histogram}; the lower edge of every bin (the last bin is open above, its
+  // upper edge +inf is not written).
+  auto distortion_json = [](const Distortion& q) {
+    ordered_json edges = ordered_json::array();
+    for (std::size_t i = 0; i < q.counts.size() && i < q.bin_edges.size(); ++i) edges.push_back(finite_or_null(q.bin_edges[i]));
+    return ordered_json{{"max", finite_or_null(q.max)},
+                        {"mean", finite_or_null(q.mean)},
+                        {"histogram", {{"edges", std::move(edges)}, {"counts", q.counts}}}};
+  };
+  const Optimization& opt = r.optimization;
+  d["optimization"] = {{"energy", to_string(opt.energy)},
+                       {"ran", opt.ran},
+                       {"outcome", opt.outcome},
+                       {"iterations", opt.iterations},
+                       {"free_vertices", opt.free_vertices},
+                       {"energy_before", finite_or_null(opt.energy_before)},
+                       {"energy_after", finite_or_null(opt.energy_after)},
+                       {"distortion_before", opt.ran ? distortion_json(opt.before) : ordered_json(nullptr)}};
+  d["distortion"] = distortion_json(r.distortion);
   const StageTimings& t = r.timings;
   d["timings_ms"] = {{"validate", t.validate},     {"classify", t.classify}, {"target_mesh", t.target_mesh},
                      {"intermediate_maps", t.intermediate_maps}, {"compose", t.compose},
-                     {"refine", t.refine},         {"verify", t.verify},     {"quality", t.quality},
+                     {"untangle", t.untangle},     {"refine", t.refine},     {"optimize", t.optimize},
+                     {"verify", t.verify},         {"quality", t.quality},
                      {"total", t.total}};
   out["diagnostics"] = std::move(d);
   return out;

@@ -38,6 +38,10 @@ void apply(const OptionOverrides& o, ParametrizeOptions& options) {
   if (o.method) options.method = *o.method;
   if (o.refine) options.refine = *o.refine;
   if (o.target_density) options.target_density = *o.target_density;
+  if (o.optimize) options.optimize = *o.optimize;
+  if (o.max_iterations) options.max_iterations = *o.max_iterations;
+  if (o.time_budget_ms) options.time_budget_ms = *o.time_budget_ms;
+  if (o.untangle) options.untangle = *o.untangle;
 }
 
 LoadedRequest from_gltf(gltf::Request r, RequestForm form) {

@@ -36,6 +36,10 @@ struct OptionOverrides {
   std::optional<MapMethod> method;
   std::optional<bool> refine;
   std::optional<double> target_density;
+  std::optional<OptimizeEnergy> optimize;
+  std::optional<int> max_iterations;
+  std::optional<double> time_budget_ms;
+  std::optional<bool> untangle;
 };
 
 struct RequestInput {

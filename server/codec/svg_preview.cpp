@@ -290,8 +290,15 @@ MapPicture picture_of(const ParametrizeResult& result, const std::string& title)
   p.caption.push_back("vertices " + std::to_string(m.vertices.size()) + ", triangles " + std::to_string(m.faces.size()) +
                       ", inserted " + std::to_string(m.inserted.size()) + ", flipped before refinement " +
                       std::to_string(m.flipped_before_refinement) + ", flipped " + std::to_string(result.flipped));
-  p.caption.push_back("conformal distortion K: max " + fixed(result.distortion.max, 3) + ", mean " +
-                      fixed(result.distortion.mean, 3));
+  std::string line3 = "conformal distortion K: max " + fixed(result.distortion.max, 3) + ", mean " +
+                      fixed(result.distortion.mean, 3);
+  if (result.optimization.ran)
+    line3 += " (optimized, " + std::string(to_string(result.optimization.energy)) + ", " +
+             std::to_string(result.optimization.iterations) + " steps; before: max " +
+             fixed(result.optimization.before.max, 3) + ", mean " + fixed(result.optimization.before.mean, 3) + ")";
+  if (result.untangling.succeeded)
+    line3 += "; untangled " + std::to_string(result.untangling.flipped_before) + " flips without refinement";
+  p.caption.push_back(line3);
   return p;
 }
 

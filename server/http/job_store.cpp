@@ -8,9 +8,10 @@ namespace lipmap::server {
 
 namespace {
 
-constexpr std::array<Stage, 8> kStages{Stage::validate,          Stage::classify, Stage::target_mesh,
-                                       Stage::intermediate_maps, Stage::compose,  Stage::refine,
-                                       Stage::verify,            Stage::quality};
+constexpr std::array<Stage, 10> kStages{Stage::validate,          Stage::classify, Stage::target_mesh,
+                                        Stage::intermediate_maps, Stage::compose,  Stage::untangle,
+                                        Stage::refine,            Stage::optimize, Stage::verify,
+                                        Stage::quality};
 
 std::size_t stage_index(Stage s) {
   return static_cast<std::size_t>(std::find(kStages.begin(), kStages.end(), s) - kStages.begin());

@@ -102,7 +102,8 @@ MapOutcome run_map(const codec::ParametrizeRequest& request, const CancelToken& 
   const std::pair<Stage, double> stages[] = {{Stage::validate, t.validate},   {Stage::classify, t.classify},
                                              {Stage::target_mesh, t.target_mesh},
                                              {Stage::intermediate_maps, t.intermediate_maps},
-                                             {Stage::compose, t.compose},     {Stage::refine, t.refine},
+                                             {Stage::compose, t.compose},     {Stage::untangle, t.untangle},
+                                             {Stage::refine, t.refine},       {Stage::optimize, t.optimize},
                                              {Stage::verify, t.verify},       {Stage::quality, t.quality}};
   for (const auto& [stage, ms] : stages) metrics.observe_stage(lipmap::to_string(stage), ms / 1000.0);
   metrics.observe_inserted_vertices(static_cast<long long>(result->map.inserted.size()));

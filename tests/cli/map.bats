@@ -82,7 +82,7 @@ expect_error() {
   [ "$(jq .diagnostics.flipped "$T/out.json")" -eq 0 ]
   [ "$(jq -c '.uv[0:4]' "$T/out.json")" = '[[0,0],[2,0],[2,2],[0,2]]' ]
   [ "$(jq '.diagnostics.distortion.histogram.counts | add' "$T/out.json")" -eq "$(jq '.mesh.faces | length' "$T/out.json")" ]
-  jq -e '.diagnostics.timings_ms | [.validate, .classify, .target_mesh, .intermediate_maps, .compose, .refine, .verify, .quality, .total] | all(. >= 0)' "$T/out.json" >/dev/null
+  jq -e '.diagnostics.timings_ms | [.validate, .classify, .target_mesh, .intermediate_maps, .compose, .untangle, .refine, .optimize, .verify, .quality, .total] | all(. >= 0)' "$T/out.json" >/dev/null
 }
 
 @test "a whole parametrize request as MESH.json, without --boundary; --pretty" {
@@ -137,7 +137,7 @@ expect_error() {
   lipmap map "$T/pyramid.obj" --boundary "$T/square.json" -o "$T/out.obj" --progress
   [ "$status" -eq 0 ]
   [ -z "$output" ]
-  for stage in validate classify target_mesh intermediate_maps compose refine verify quality; do
+  for stage in validate classify target_mesh intermediate_maps compose untangle refine optimize verify quality; do
     grep -q "^lipmap: progress: $stage \.\.\.$" <<<"$stderr"
     grep -q "^lipmap: progress: $stage done in " <<<"$stderr"
   done
@@ -210,4 +210,19 @@ expect_error() {
 @test "an unwritable output is an input error" {
   lipmap map "$T/pyramid.obj" --boundary "$T/square.json" -o "$T/no/such/dir/out.obj"
   expect_error 1 output_file_unwritable
+}
+
+@test "--optimize none / mips, --max-iterations, --no-untangle: options reach the engine and its diagnostics" {
+  lipmap map "$T/fan.obj" --boundary "$T/u.json" -o "$T/none.json" --optimize none
+  [ "$status" -eq 0 ]
+  validates parametrize-answer.schema.json "$T/none.json"
+  [ "$(jq -r .diagnostics.optimization.ran "$T/none.json")" = false ]
+  lipmap map "$T/fan.obj" --boundary "$T/u.json" -o "$T/mips.json" --optimize mips --max-iterations 50 --no-untangle
+  [ "$status" -eq 0 ]
+  validates parametrize-answer.schema.json "$T/mips.json"
+  [ "$(jq -r .diagnostics.optimization.energy "$T/mips.json")" = mips ]
+  [ "$(jq -r .diagnostics.untangling.attempted "$T/mips.json")" = false ]
+  [ "$(jq '.diagnostics.optimization.iterations <= 50' "$T/mips.json")" = true ]
+  lipmap map "$T/fan.obj" --boundary "$T/u.json" -o "$T/bad.json" --optimize fast
+  [ "$status" -eq 2 ]
 }

@@ -186,7 +186,7 @@ TEST(RequestLoader, EveryFormGivesTheSameRequestAsItsJsonForm) {
     codec::RequestInput overridden;
     overridden.file = dir.write("plain.json", plain.dump());
     overridden.read_file = read_file;
-    overridden.overrides = {MapMethod::tutte, false, 2.5};
+    overridden.overrides = {MapMethod::tutte, false, 2.5, {}, {}, {}, {}};
     expect_same(codec::load_request(overridden).request, ref.request, "overrides");
 
     // boundary=texcoord:0: the documented convention, written out as JSON.

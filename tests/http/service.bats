@@ -158,7 +158,7 @@ teardown_file() { stop_server MAIN; }
   wait_for_job "$MAIN_URL" "$id" succeeded
   [ "$(jq -r .progress.fraction "$answer")" = 1 ]
   [ "$(jq -r '[.progress.stages[].stage] | join(",")' "$answer")" = \
-    validate,classify,target_mesh,intermediate_maps,compose,refine,verify,quality ]
+    validate,classify,target_mesh,intermediate_maps,compose,untangle,refine,optimize,verify,quality ]
   [ "$(jq -r '[.progress.stages[].done] | all' "$answer")" = true ]
   call GET "$MAIN_URL/v1/jobs/$id/result"
   expect 200

@@ -1,0 +1,82 @@
+// The minimizer shared by the stages "untangle" and "optimize": a sum over triangles of an energy of each
+// triangle's Jacobian J (3D triangle -> uv triangle), minimized over the uv of the free vertices while the
+// pinned ones (the boundary, always) keep their uv bit for bit: they are eliminated, never soft constraints.
+//
+// Method: L-BFGS (Nocedal & Wright, Alg. 7.4) whose initial inverse Hessian is the inverse of the Dirichlet
+// Laplacian of the rest mesh, factorized once with CHOLMOD and reused by every iteration and every call
+// (the "Laplacian preconditioned" quasi-Newton of Zhu, Bridson & Kaufman 2018, Blended Cured Quasi-Newton,
+// and of Kovalsky, Galun & Lipman 2016, AQP): one sparse back-solve per iteration, no Hessian assembly.
+// Energies (per triangle, weighted by rest area):
+//   mips                 tr(J^T J) / det J = K + 1/K with K = sigma1 / sigma2 (Hormann & Greiner 2000): lowers
+//                        exactly the conformal distortion the quality stage reports; +inf when det J <= 0.
+//   symmetric_dirichlet  |J|^2 + |J^-1|^2 (Smith & Schaefer 2015, Rabinovich et al. 2017): conformal and
+//                        area distortion together; +inf when det J <= 0.
+//   untangle             Garanzha et al. 2021 ("Foldover-free maps in 50 lines of code"), 2D:
+//                        (1 - theta) tr(J^T J) / chi(det J, eps) + theta (det^2 J + 1) / chi(det J, eps) with
+//                        chi(D, eps) = (D + sqrt(eps^2 + D^2)) / 2 > 0: finite for folded triangles, and as eps
+//                        decreases it tends to a barrier that keeps det J > 0.
+// With flip_free (mips, symmetric_dirichlet) every accepted step keeps every triangle strictly positive:
+// the step is bounded by the first t at which some det(J(t)) = 0 (Smith & Schaefer 2015, "Bijective
+// parameterization with free boundaries", 4.1: a quadratic in t per triangle), then backtracked (Armijo),
+// and the accepted positions are checked with the engine's exact orientation predicate.
+// The rest shape of each triangle is its 3D triangle in a local frame, scaled so that the rest areas add up
+// to the uv area (so det J is about 1 for an area-preserving map); a 3D triangle of (nearly) zero area gets
+// an equilateral rest shape of the mean area, so that it has a Jacobian (its uv triangle is still kept
+// positive).
+#pragma once
+
+#include <chrono>
+#include <memory>
+#include <vector>
+
+#include "engine/cancel.h"
+#include "engine/geometry.h"
+
+namespace lipmap::detail {
+
+enum class UvEnergy { mips, symmetric_dirichlet, untangle };
+
+struct DescentSettings {
+  UvEnergy energy = UvEnergy::mips;
+  double epsilon = 0;        // untangle only: chi's regularization
+  double theta = 1.0 / 128;  // untangle only: weight of the area term (Garanzha et al. 2021 use a small one)
+  bool flip_free = true;     // mips / symmetric_dirichlet: every accepted step keeps every triangle positive
+  int max_iterations = 100;
+  double relative_tolerance = 1e-7;  // stop when one iteration lowers the energy by less than this fraction
+  std::chrono::steady_clock::time_point deadline = std::chrono::steady_clock::time_point::max();
+  const CancelToken* cancel = nullptr;
+};
+
+struct DescentOutcome {
+  int iterations = 0;                      // accepted steps
+  double energy_before = 0, energy_after = 0;  // rest-area-weighted means
+  bool converged = false;                  // stopped by the tolerance (not by a cap, the deadline or a stall)
+};
+
+class UvDescent {
+public:
+  // pinned[v]: vertex v keeps its uv. uv_area: the signed area of the uv domain (the boundary polygon's
+  // shoelace area, the area of the immersed disk), used to scale the rest shapes.
+  UvDescent(const std::vector<Point3>& vertices, const std::vector<Triangle>& faces, const std::vector<char>& pinned,
+            double uv_area);
+  ~UvDescent();
+  UvDescent(const UvDescent&) = delete;
+  UvDescent& operator=(const UvDescent&) = delete;
+
+  int free_vertices() const;
+  // Rest-area-weighted mean of the energy; +inf for mips / symmetric_dirichlet when a triangle is not positive.
+  double energy(const std::vector<Point2>& uv, const DescentSettings& settings) const;
+  // The smallest det J over the faces (floating point; the exact test is orientation_sign).
+  double min_det(const std::vector<Point2>& uv) const;
+  // Lowers the energy from uv (free vertices only). With flip_free, uv must start with every face positive.
+  DescentOutcome minimize(std::vector<Point2>& uv, const DescentSettings& settings);
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// chi(D, eps) of Garanzha et al. 2021: a smooth positive stand-in for max(D, 0).
+double regularized_det(double det, double eps);
+
+}  // namespace lipmap::detail

@@ -1,0 +1,44 @@
+// Stage "optimize", after refine (or after a successful untangle): lower the distortion of a locally
+// injective map while every step keeps every triangle strictly positive, so the map stays locally injective
+// (a continuous motion through positive triangles cannot change an angle sum, which is a whole number of
+// turns) and verify checks the final answer exactly as before.
+//
+// Energy (ParametrizeOptions::optimize): MIPS tr(J^T J) / det J = K + 1/K (the default: it lowers the
+// conformal distortion K = sigma1 / sigma2 that the quality stage reports) or the symmetric Dirichlet energy;
+// minimized by Laplacian-preconditioned L-BFGS with the flip-free line search of Smith & Schaefer 2015
+// (engine/detail/uv_descent.h), the accepted positions checked with the exact orientation predicate.
+//
+// What moves: the interior vertices. The boundary is pinned exactly. Inserted vertices, and the original
+// corners of the source faces that carry inserted vertices, stay too: those faces' refined polygons are the
+// ones the refinement minimized (paper 4, Fig. 11: no inserted point removable), and moving their corners
+// could make a point removable after the fact. Every other vertex of a refined mesh moves freely.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "engine/cancel.h"
+#include "engine/disk_mesh.h"
+#include "engine/parametrize_options.h"
+#include "engine/quality.h"
+#include "engine/refine.h"
+
+namespace lipmap {
+
+struct Optimization {
+  OptimizeEnergy energy = OptimizeEnergy::none;
+  bool ran = false;
+  std::string outcome;       // one line: why it did not run, or why it stopped
+  int iterations = 0;        // accepted steps
+  int free_vertices = 0;     // vertices that could move
+  double energy_before = 0, energy_after = 0;  // rest-area-weighted mean of the energy
+  Distortion before;         // conformal distortion of the map it started from (after: the quality stage's)
+};
+
+// map: a refined map at the working scale with every face strictly positive; its uv is changed in place.
+// loop: the source boundary loop; source: the validated source mesh (its topology locates inserted
+// vertices' faces). Throws Cancelled.
+Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, double uv_area, RefinedMap& map,
+                          const ParametrizeOptions& options, const CancelToken* cancel = nullptr);
+
+}  // namespace lipmap

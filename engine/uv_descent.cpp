@@ -1,0 +1,385 @@
+// The shared minimizer of "untangle" and "optimize" (engine/detail/uv_descent.h).
+#include "engine/detail/uv_descent.h"
+
+#include <Eigen/CholmodSupport>
+#include <Eigen/Dense>
+#include <Eigen/Sparse>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <deque>
+#include <limits>
+
+#include "engine/detail/exact_predicates.h"
+#include "engine/error.h"
+
+namespace lipmap::detail {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+using Clock = std::chrono::steady_clock;
+using SpMat = Eigen::SparseMatrix<double>;
+using Vec2s = Eigen::MatrixX2d;  // one row per free vertex: (u, v)
+
+// A 2 x 2 matrix [[a, b], [c, d]].
+struct M2 {
+  double a = 0, b = 0, c = 0, d = 0;
+  double det() const { return a * d - b * c; }
+  double norm2() const { return a * a + b * b + c * c + d * d; }
+  M2 cof() const { return {d, -c, -b, a}; }  // d det / dJ
+};
+inline M2 mul(const M2& x, const M2& y) {
+  return {x.a * y.a + x.b * y.c, x.a * y.b + x.b * y.d, x.c * y.a + x.d * y.c, x.c * y.b + x.d * y.d};
+}
+inline M2 mul_bt(const M2& x, const M2& y) {  // x * y^T
+  return {x.a * y.a + x.b * y.b, x.a * y.c + x.b * y.d, x.c * y.a + x.d * y.b, x.c * y.c + x.d * y.d};
+}
+
+// Energy of one Jacobian and its gradient dE/dJ (when grad is not null).
+double jacobian_energy(const M2& J, const DescentSettings& s, M2* grad) {
+  const double det = J.det(), n2 = J.norm2();
+  const M2 C = J.cof();
+  switch (s.energy) {
+    case UvEnergy::mips: {
+      if (!(det > 0)) return kInf;
+      if (grad) {
+        const double k1 = 2 / det, k2 = n2 / (det * det);
+        *grad = {k1 * J.a - k2 * C.a, k1 * J.b - k2 * C.b, k1 * J.c - k2 * C.c, k1 * J.d - k2 * C.d};
+      }
+      return n2 / det;
+    }
+    case UvEnergy::symmetric_dirichlet: {  // |J|^2 + |J^-1|^2 = |J|^2 (1 + 1 / det^2) in 2D
+      if (!(det > 0)) return kInf;
+      const double inv2 = 1 / (det * det);
+      if (grad) {
+        const double k1 = 2 * (1 + inv2), k2 = 2 * n2 * inv2 / det;
+        *grad = {k1 * J.a - k2 * C.a, k1 * J.b - k2 * C.b, k1 * J.c - k2 * C.c, k1 * J.d - k2 * C.d};
+      }
+      return n2 * (1 + inv2);
+    }
+    case UvEnergy::untangle: {
+      const double root = std::sqrt(s.epsilon * s.epsilon + det * det);
+      const double chi = regularized_det(det, s.epsilon);
+      const double dchi = 0.5 * (1 + det / root);
+      const double area = det * det + 1;
+      if (grad) {
+        const double k1 = (1 - s.theta) * 2 / chi;
+        const double k2 = (1 - s.theta) * (-n2 * dchi / (chi * chi)) + s.theta * (2 * det / chi - area * dchi / (chi * chi));
+        *grad = {k1 * J.a + k2 * C.a, k1 * J.b + k2 * C.b, k1 * J.c + k2 * C.c, k1 * J.d + k2 * C.d};
+      }
+      return ((1 - s.theta) * n2 + s.theta * area) / chi;
+    }
+  }
+  return kInf;
+}
+
+// Smallest t > 0 with det(D + t E) = 0, or +inf.
+double first_zero(const M2& D, const M2& E) {
+  const double a = E.det();
+  const double b = D.a * E.d + E.a * D.d - D.b * E.c - E.b * D.c;
+  const double c = D.det();
+  double t = kInf;
+  auto take = [&](double r) {
+    if (r > 0 && r < t) t = r;
+  };
+  const double scale = std::abs(b) + std::abs(c);
+  if (std::abs(a) <= 1e-14 * scale) {
+    if (b != 0) take(-c / b);
+    return t;
+  }
+  const double disc = b * b - 4 * a * c;
+  if (disc < 0) return t;
+  const double q = -0.5 * (b + std::copysign(std::sqrt(disc), b));  // stable roots q / a and c / q
+  take(q / a);
+  if (q != 0) take(c / q);
+  return t;
+}
+
+double dot(const Vec2s& x, const Vec2s& y) { return (x.array() * y.array()).sum(); }
+
+}  // namespace
+
+double regularized_det(double det, double eps) { return 0.5 * (det + std::sqrt(eps * eps + det * det)); }
+
+struct UvDescent::Impl {
+  const std::vector<Triangle>& faces;
+  std::vector<int> index;        // free index of each vertex, -1 when pinned
+  std::vector<int> free_vertex;  // vertex of each free index
+  std::vector<M2> rest_inverse;  // B = S^-1, S the rest triangle's edge vectors (columns) in a local frame
+  std::vector<double> weight;    // rest area
+  std::vector<int> active;       // faces with a free corner
+  double total_weight = 0;
+  Eigen::CholmodSimplicialLLT<SpMat, Eigen::Lower> laplacian_factor;
+  SpMat laplacian;
+  bool factored = false;
+
+  Impl(const std::vector<Point3>& vertices, const std::vector<Triangle>& f, const std::vector<char>& pinned,
+       double uv_area)
+      : faces(f) {
+    const int nv = static_cast<int>(vertices.size());
+    index.assign(nv, -1);
+    for (int v = 0; v < nv; ++v)
+      if (!pinned[v]) {
+        index[v] = static_cast<int>(free_vertex.size());
+        free_vertex.push_back(v);
+      }
+    // Rest shapes in local frames (as engine/quality.cpp measures K): q0 = 0, q1 = (|e1|, 0), q2 above.
+    const std::size_t nf = faces.size();
+    std::vector<std::array<double, 3>> frame(nf);  // q1x, q2x, q2y
+    std::vector<char> good(nf, 0);
+    double good_area = 0;
+    int good_count = 0;
+    for (std::size_t i = 0; i < nf; ++i) {
+      const Point3 &p0 = vertices[faces[i][0]], &p1 = vertices[faces[i][1]], &p2 = vertices[faces[i][2]];
+      const double ax = p1.x - p0.x, ay = p1.y - p0.y, az = p1.z - p0.z;
+      const double bx = p2.x - p0.x, by = p2.y - p0.y, bz = p2.z - p0.z;
+      const double nx = ay * bz - az * by, ny = az * bx - ax * bz, nz = ax * by - ay * bx;
+      const double n = std::sqrt(nx * nx + ny * ny + nz * nz);
+      const double la = std::sqrt(ax * ax + ay * ay + az * az), lb = std::sqrt(bx * bx + by * by + bz * bz);
+      const double longest2 = std::max({la * la, lb * lb, (bx - ax) * (bx - ax) + (by - ay) * (by - ay) + (bz - az) * (bz - az)});
+      // Needle or flat triangles (area below 1e-6 of the longest edge squared) get the stand-in shape: their
+      // rest Jacobian would be nearly singular and dominate the energy.
+      if (!(n > 1e-6 * longest2) || !std::isfinite(n) || !(la > 0)) continue;
+      frame[i] = {la, (ax * bx + ay * by + az * bz) / la, n / la};
+      good[i] = 1;
+      good_area += 0.5 * n;
+      ++good_count;
+    }
+    const double mean_area = good_count > 0 ? good_area / good_count : 1.0;
+    const double side = std::sqrt(4 * mean_area / std::sqrt(3.0));
+    double rest_area = 0;
+    for (std::size_t i = 0; i < nf; ++i) {
+      if (!good[i]) frame[i] = {side, 0.5 * side, 0.5 * std::sqrt(3.0) * side};
+      rest_area += 0.5 * frame[i][0] * frame[i][2];
+    }
+    const double s = uv_area > 0 && rest_area > 0 ? std::sqrt(uv_area / rest_area) : 1.0;
+    rest_inverse.resize(nf);
+    weight.resize(nf);
+    for (std::size_t i = 0; i < nf; ++i) {
+      const double q1x = s * frame[i][0], q2x = s * frame[i][1], q2y = s * frame[i][2];
+      rest_inverse[i] = {1 / q1x, -q2x / (q1x * q2y), 0, 1 / q2y};
+      weight[i] = 0.5 * q1x * q2y;
+      total_weight += weight[i];
+      if (index[faces[i][0]] >= 0 || index[faces[i][1]] >= 0 || index[faces[i][2]] >= 0)
+        active.push_back(static_cast<int>(i));
+    }
+    build_laplacian();
+  }
+
+  // The Dirichlet energy's Hessian sum_t A_t |J_t|^2 on the free vertices: per triangle A G G^T with G the
+  // 3 x 2 gradient operator, positive semi-definite by construction (with the cotangent weights of the rest
+  // shapes), positive definite with the pinned boundary.
+  void build_laplacian() {
+    const int n = static_cast<int>(free_vertex.size());
+    if (n == 0) return;
+    std::vector<Eigen::Triplet<double>> entries;
+    entries.reserve(active.size() * 9);
+    for (int f : active) {
+      const M2& B = rest_inverse[f];
+      // Rows of G: d J / d u_k for corners 0, 1, 2: u1 - u0 and u2 - u0 columns times B.
+      const double g[3][2] = {{-(B.a + B.c), -(B.b + B.d)}, {B.a, B.b}, {B.c, B.d}};
+      for (int i = 0; i < 3; ++i) {
+        const int r = index[faces[f][i]];
+        if (r < 0) continue;
+        for (int j = 0; j < 3; ++j) {
+          const int c = index[faces[f][j]];
+          if (c < 0 || c > r) continue;  // lower triangle
+          entries.emplace_back(r, c, weight[f] * (g[i][0] * g[j][0] + g[i][1] * g[j][1]));
+        }
+      }
+    }
+    laplacian.resize(n, n);
+    laplacian.setFromTriplets(entries.begin(), entries.end());
+    laplacian_factor.cholmod().print = 0;
+    laplacian_factor.compute(laplacian);
+    factored = laplacian_factor.info() == Eigen::Success;
+  }
+
+  Vec2s precondition(const Vec2s& g) const {
+    if (factored) return laplacian_factor.solve(g);
+    // Jacobi when the factorization failed (it should not: the matrix is SPD).
+    Vec2s out = g;
+    for (int i = 0; i < out.rows(); ++i) {
+      const double d = laplacian.coeff(i, i);
+      if (d > 0) out.row(i) /= d;
+    }
+    return out;
+  }
+
+  Vec2s laplacian_times(const Vec2s& x) const {
+    return laplacian.selfadjointView<Eigen::Lower>() * x;
+  }
+
+  M2 edges(const std::vector<Point2>& uv, int f) const {
+    const Point2 &u0 = uv[faces[f][0]], &u1 = uv[faces[f][1]], &u2 = uv[faces[f][2]];
+    return {u1.x - u0.x, u2.x - u0.x, u1.y - u0.y, u2.y - u0.y};
+  }
+
+  // Sum of weighted energies over the active faces (the others are constant), with the gradient.
+  double evaluate(const std::vector<Point2>& uv, const DescentSettings& s, Vec2s* grad) const {
+    if (grad) grad->setZero(static_cast<Eigen::Index>(free_vertex.size()), 2);
+    double e = 0;
+    for (int f : active) {
+      const M2 D = edges(uv, f);
+      const M2 J = mul(D, rest_inverse[f]);
+      M2 G;
+      const double ef = jacobian_energy(J, s, grad ? &G : nullptr);
+      if (!std::isfinite(ef)) return kInf;
+      e += weight[f] * ef;
+      if (!grad) continue;
+      const M2 dD = mul_bt(G, rest_inverse[f]);  // dE/dD = dE/dJ B^T; columns: d/d(u1 - u0), d/d(u2 - u0)
+      const int i0 = index[faces[f][0]], i1 = index[faces[f][1]], i2 = index[faces[f][2]];
+      const double w = weight[f];
+      if (i1 >= 0) { (*grad)(i1, 0) += w * dD.a; (*grad)(i1, 1) += w * dD.c; }
+      if (i2 >= 0) { (*grad)(i2, 0) += w * dD.b; (*grad)(i2, 1) += w * dD.d; }
+      if (i0 >= 0) { (*grad)(i0, 0) -= w * (dD.a + dD.b); (*grad)(i0, 1) -= w * (dD.c + dD.d); }
+    }
+    return e;
+  }
+
+  void apply(const std::vector<Point2>& from, const Vec2s& step, double t, std::vector<Point2>& to) const {
+    to = from;
+    for (std::size_t i = 0; i < free_vertex.size(); ++i) {
+      Point2& p = to[free_vertex[i]];
+      p.x += t * step(static_cast<Eigen::Index>(i), 0);
+      p.y += t * step(static_cast<Eigen::Index>(i), 1);
+    }
+  }
+
+  // Smith & Schaefer 2015, 4.1: the largest t for which every active triangle stays positive along the step.
+  double max_flip_free_step(const std::vector<Point2>& uv, const Vec2s& step) const {
+    double t = kInf;
+    for (int f : active) {
+      M2 E;
+      double dx[3] = {0, 0, 0}, dy[3] = {0, 0, 0};
+      for (int c = 0; c < 3; ++c)
+        if (const int i = index[faces[f][c]]; i >= 0) {
+          dx[c] = step(i, 0);
+          dy[c] = step(i, 1);
+        }
+      E = {dx[1] - dx[0], dx[2] - dx[0], dy[1] - dy[0], dy[2] - dy[0]};
+      t = std::min(t, first_zero(edges(uv, f), E));
+    }
+    return t;
+  }
+
+  bool all_positive_exactly(const std::vector<Point2>& uv) const {
+    for (int f : active)
+      if (orient(uv[faces[f][0]], uv[faces[f][1]], uv[faces[f][2]]) <= 0) return false;
+    return true;
+  }
+};
+
+UvDescent::UvDescent(const std::vector<Point3>& vertices, const std::vector<Triangle>& faces,
+                     const std::vector<char>& pinned, double uv_area)
+    : impl_(std::make_unique<Impl>(vertices, faces, pinned, uv_area)) {}
+UvDescent::~UvDescent() = default;
+
+int UvDescent::free_vertices() const { return static_cast<int>(impl_->free_vertex.size()); }
+
+double UvDescent::energy(const std::vector<Point2>& uv, const DescentSettings& settings) const {
+  double e = 0;
+  for (std::size_t f = 0; f < impl_->faces.size(); ++f) {
+    const double ef = jacobian_energy(mul(impl_->edges(uv, static_cast<int>(f)), impl_->rest_inverse[f]), settings, nullptr);
+    if (!std::isfinite(ef)) return kInf;
+    e += impl_->weight[f] * ef;
+  }
+  return impl_->total_weight > 0 ? e / impl_->total_weight : 0;
+}
+
+double UvDescent::min_det(const std::vector<Point2>& uv) const {
+  double m = kInf;
+  for (std::size_t f = 0; f < impl_->faces.size(); ++f)
+    m = std::min(m, mul(impl_->edges(uv, static_cast<int>(f)), impl_->rest_inverse[f]).det());
+  return m;
+}
+
+DescentOutcome UvDescent::minimize(std::vector<Point2>& uv, const DescentSettings& s) {
+  Impl& m = *impl_;
+  DescentOutcome out;
+  out.energy_before = out.energy_after = energy(uv, s);
+  if (m.free_vertex.empty() || !std::isfinite(out.energy_before) || s.max_iterations <= 0) return out;
+  const bool flip_free = s.flip_free && s.energy != UvEnergy::untangle;
+  const int n = static_cast<int>(m.free_vertex.size());
+  // L-BFGS memory (Nocedal & Wright Alg. 7.4), vectors as n x 2 blocks.
+  constexpr std::size_t kMemory = 8;
+  std::deque<Vec2s> S, Y;
+  std::deque<double> rho;
+  double gamma = 0.5;  // H0 = gamma L^-1; 0.5: mips and the untangle energy are about 2 |J|^2 near J = I
+  Vec2s g(n, 2), g_new(n, 2), p(n, 2);
+  double e = m.evaluate(uv, s, &g);
+  std::vector<Point2> trial;
+  constexpr double kArmijo = 1e-4;
+  int small_steps = 0;
+  for (int it = 0; it < s.max_iterations; ++it) {
+    check_cancel(s.cancel);
+    if (Clock::now() >= s.deadline) break;
+    // Two-loop recursion.
+    Vec2s q = g;
+    std::vector<double> alpha(S.size());
+    for (std::size_t k = S.size(); k-- > 0;) {
+      alpha[k] = rho[k] * dot(S[k], q);
+      q -= alpha[k] * Y[k];
+    }
+    Vec2s r = gamma * m.precondition(q);
+    for (std::size_t k = 0; k < S.size(); ++k) {
+      const double beta = rho[k] * dot(Y[k], r);
+      r += (alpha[k] - beta) * S[k];
+    }
+    p = -r;
+    double slope = dot(g, p);
+    if (!(slope < 0)) {  // not a descent direction: forget the curvature pairs
+      S.clear(), Y.clear(), rho.clear();
+      p = -gamma * m.precondition(g);
+      slope = dot(g, p);
+      if (!(slope < 0)) break;
+    }
+    double t = 1;
+    if (flip_free) t = std::min(1.0, 0.9 * m.max_flip_free_step(uv, p));
+    bool accepted = false;
+    double e_new = e;
+    for (int back = 0; back < 40 && t > 0; ++back, t *= 0.5) {
+      check_cancel(s.cancel);
+      m.apply(uv, p, t, trial);
+      e_new = m.evaluate(trial, s, nullptr);
+      if (!(e_new <= e + kArmijo * t * slope)) continue;
+      if (flip_free && !m.all_positive_exactly(trial)) continue;
+      accepted = true;
+      break;
+    }
+    if (!accepted) {
+      // A stall: retry once along the preconditioned gradient with a fresh memory, else stop (uv keeps the
+      // last accepted positions).
+      if (S.empty()) break;
+      S.clear(), Y.clear(), rho.clear();
+      continue;
+    }
+    m.evaluate(trial, s, &g_new);
+    Vec2s step = t * p, dg = g_new - g;
+    const double sy = dot(step, dg);
+    if (sy > 1e-300) {
+      S.push_back(step), Y.push_back(dg), rho.push_back(1 / sy);
+      if (S.size() > kMemory) S.pop_front(), Y.pop_front(), rho.pop_front();
+      // Barzilai-Borwein scale in the metric of L: s^T L s / s^T y.
+      const double sls = dot(step, m.laplacian_times(step));
+      if (sls > 0) gamma = sls / sy;
+    }
+    uv.swap(trial);
+    g.swap(g_new);
+    const double drop = e - e_new;
+    e = e_new;
+    ++out.iterations;
+    // Converged: three steps in a row that each lower the energy by less than the tolerance (one short
+    // step after heavy backtracking is not convergence).
+    small_steps = drop <= s.relative_tolerance * std::abs(e) ? small_steps + 1 : 0;
+    if (small_steps >= 3) {
+      out.converged = true;
+      break;
+    }
+  }
+  out.energy_after = energy(uv, s);
+  return out;
+}
+
+}  // namespace lipmap::detail
