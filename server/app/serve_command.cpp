@@ -33,8 +33,24 @@ CLI::App* add_serve_subcommand(CLI::App& app, ServeOptions& o) {
   cmd->add_option("--queue", c.queue_capacity, "Tasks that may wait for a worker; beyond, 503 + Retry-After")
       ->envname("LIPMAP_QUEUE")
       ->capture_default_str();
-  cmd->add_option("--http-threads", c.http_threads, "Connection threads; 0 = workers + queue + 8")
-      ->envname("LIPMAP_HTTP_THREADS")
+  cmd->add_option("--max-connections,--http-threads", c.http_threads,
+                  "Connections served at once (one thread each; at most 900); beyond, 503 too_many_connections "
+                  "and close; 0 = 512")
+      ->envname("LIPMAP_MAX_CONNECTIONS")
+      ->capture_default_str();
+  cmd->add_option("--admin-port", c.admin_port,
+                  "Also serve /healthz, /readyz and /metrics on this port, with threads of their own; 0 picks a free "
+                  "one (logged); -1 = none")
+      ->envname("LIPMAP_ADMIN_PORT")
+      ->check(CLI::Range(-1, 65535))
+      ->capture_default_str();
+  cmd->add_option("--header-timeout", c.header_timeout_seconds,
+                  "Seconds a request's line and headers may take to arrive, from its first byte; then 408 and close")
+      ->envname("LIPMAP_HEADER_TIMEOUT")
+      ->capture_default_str();
+  cmd->add_option("--request-timeout", c.request_timeout_seconds,
+                  "Seconds a whole request (headers and body) may take to arrive, from its first byte; then 408 and close")
+      ->envname("LIPMAP_REQUEST_TIMEOUT")
       ->capture_default_str();
   cmd->add_option("--max-body-bytes", c.max_body_bytes, "Largest request body; beyond, 413")
       ->envname("LIPMAP_MAX_BODY_BYTES")
@@ -48,6 +64,11 @@ CLI::App* add_serve_subcommand(CLI::App& app, ServeOptions& o) {
   cmd->add_option("--max-polygon-vertices", c.max_polygon_vertices,
                   "Largest boundary polygon; beyond, 422 polygon_too_large")
       ->envname("LIPMAP_MAX_POLYGON_VERTICES")
+      ->capture_default_str();
+  cmd->add_option("--memory-budget", c.memory_budget_bytes,
+                  "Largest estimated peak memory of one request, in bytes; beyond, 413 (body) or 422 "
+                  "memory_budget_exceeded")
+      ->envname("LIPMAP_MEMORY_BUDGET")
       ->capture_default_str();
   cmd->add_option("--deadline", c.deadline_seconds,
                   "Seconds a request or job may take from its arrival; then it is cancelled (504, or job failed)")
@@ -120,7 +141,8 @@ int serve_command(const ServeOptions& options, std::ostream& out, std::ostream& 
 
   const bool clean = server->shutdown();
   logger->flush();
-  if (!clean) std::_Exit(kExitOk);  // engine threads ignored their cancellation: do not wait on them
+  // Engine threads ignored their cancellation: do not wait on them, and say the stop was not clean.
+  if (!clean) std::_Exit(codec::kExitInternalError);
   // The detached signal thread still waits in sigwait; the server object must outlive it.
   server.release();
   return kExitOk;
