@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Overload benchmark of `lipmap serve` (issue 14's acceptance; docs/hard-points.md "Overload" keeps the figures).
+# Overload benchmark of `lipmap serve` (docs/hard-points.md keeps the figures).
 #
 #   bash bench/bench_overload.sh            (loads the machine: run it alone, e.g. under the build lock)
 #
@@ -15,7 +15,7 @@
 #    (60), reconnecting when cut; meanwhile a /healthz probe a second on the admin and the main port (1 s
 #    timeout) and two loops of normal classify requests (10 s timeout). Reported: probes answered, share of
 #    normal requests answered.
-# Acceptance (issue 14): only 200 and 503 (with Retry-After), useful >= 80% of capacity, /healthz within 1 s;
+# Acceptance: only 200 and 503 (with Retry-After), useful >= 80% of capacity, /healthz within 1 s;
 # slow clients: every admin probe answered, >= 90% of normal requests answered.
 #
 # Environment: LIPMAP_BUILD_DIR (build), BENCH_WORKERS (2), BENCH_QUEUE (4), BENCH_GRID (8), BENCH_SECONDS

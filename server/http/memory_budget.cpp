@@ -22,7 +22,7 @@ std::size_t add(std::size_t a, std::size_t b) {
 }
 
 // Measured peak RSS growth per body byte (docs/hard-points.md "Memory"): a JSON body becomes a JSON DOM
-// (nlohmann: ~48 bytes per body byte on number arrays, issue 14) before the flat arrays; glTF and
+// (nlohmann: ~48 bytes per body byte on number arrays, measured) before the flat arrays; glTF and
 // multipart bodies are binary buffers copied a few times by tinygltf.
 constexpr double kJsonBytesPerBodyByte = 48;
 constexpr double kBinaryBytesPerBodyByte = 6;

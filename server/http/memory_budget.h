@@ -23,8 +23,8 @@ std::size_t parametrize_cost(std::size_t vertices, std::size_t faces, std::size_
                              double target_density);
 
 // What one request may be estimated to take: --memory-budget, and no more than 64 MiB + 128 bytes per byte of
-// its body, so that a small request cannot make the process grow by much (issue 14: a request of at most
-// 1 MB must not grow the RSS by more than 200 MB).
+// its body, so that a small request cannot make the process grow by much (a request of at most 1 MB must
+// not grow the RSS by more than 200 MB).
 std::size_t request_budget(std::size_t memory_budget_bytes, std::size_t body_bytes);
 
 // "123.4 MiB"
