@@ -166,6 +166,16 @@ bool pre_routing(Service& service, const httplib::Request& req, httplib::Respons
       for (const Operation& o : route->operations)
         if (o.input != InputKind::none && req.method == to_string(o.method)) op = &o;
     if (!op) return false;
+    if (auto a = service.refuse_when_draining()) {
+      // Draining comes after the listener stopped, and then cpp-httplib ends the connection after this answer.
+      send(res, std::move(*a));
+      return true;
+    }
+    if (service.pool.full()) {
+      send(res, service.submit_refused(WorkerPool::Submit::queue_full));
+      if (length > 0) close_after_answer(res);
+      return true;
+    }
     const std::size_t parse_bytes = parse_cost(length, req.get_header_value("Content-Type"));
     if (parse_bytes > request_budget(service.config.memory_budget_bytes, length)) {
       Answer a = problem_answer("payload_too_large",
@@ -179,15 +189,7 @@ bool pre_routing(Service& service, const httplib::Request& req, httplib::Respons
       if (length > 0) close_after_answer(res);
       return true;
     }
-    if (auto a = service.refuse_when_draining()) {
-      // Draining comes after the listener stopped, and then cpp-httplib ends the connection after this answer.
-      send(res, std::move(*a));
-      return true;
-    }
-    if (!service.pool.full()) return false;
-    send(res, service.submit_refused(WorkerPool::Submit::queue_full));
-    if (length > 0) close_after_answer(res);
-    return true;
+    return false;
   }
   if (!body_method && !chunked) return false;
   Answer a;
