@@ -1,6 +1,13 @@
 // Benchmark of the classify stage (engine/classify.h).
 //
 //   bench_classify [--quick] [--runs N] [--budget-s S]
+//   bench_classify --curve [--budget-s S]
+//
+// --curve: the cost curve behind the service's default --max-polygon-vertices (docs/hard-points.md): one
+// classify of a heavily overlapping spiral strip (3 turns) at 2,000 .. 20,000 vertices each in its own child,
+// and of a double loop (turning number 3: nothing for the ear reduction, turn masks in the table) at 500 ..
+// 8,000, each in its own child, with its time, table memory and peak RSS; then how late a cancelled table
+// fill stops (the token's deadline 1 s after the start, on the 8,000-vertex double loop).
 //
 // Cases: nearly simple boundaries (noisy circles, gently wavy star-shaped polygons) of 100 .. 5000
 // vertices, where App. C's ear reduction should leave almost nothing for the O(n^3) table, and heavily
@@ -197,11 +204,12 @@ std::string human_bytes(long long b) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  bool quick = false;
+  bool quick = false, curve = false;
   int runs = 5;
   double budget_s = 120;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--quick")) quick = true;
+    else if (!std::strcmp(argv[i], "--curve")) curve = true;
     else if (!std::strcmp(argv[i], "--runs") && i + 1 < argc) runs = std::max(1, std::atoi(argv[++i]));
     else if (!std::strcmp(argv[i], "--budget-s") && i + 1 < argc) budget_s = std::max(0.1, std::atof(argv[++i]));
     else {
@@ -217,6 +225,40 @@ int main(int argc, char** argv) {
               u.machine, sysconf(_SC_NPROCESSORS_ONLN), std::thread::hardware_concurrency());
   std::printf("mode: %s, up to %d runs per case, time budget %.0f s per case\n\n", quick ? "quick" : "full", runs,
               budget_s);
+
+  if (curve) {
+    std::printf("%-24s %6s %12s %-24s %8s %12s %12s\n", "case", "n", "ms", "verdict", "reduced", "table", "peak RSS");
+    auto row = [&](const Case& c) {
+      const Result r = run_isolated(c, 1, budget_s);
+      std::printf("%-24s %6zu %12s %-24s %8d %12s %9.1f MiB%s%s\n", c.kind.c_str(), c.poly.size(),
+                  r.median_ms >= 0 ? std::to_string((long long)r.median_ms).c_str() : "timeout", r.verdict.c_str(),
+                  r.reduced, human_bytes(r.table_bytes).c_str(), r.rss_kb / 1024.0, r.error.empty() ? "" : "  error: ",
+                  r.error.c_str());
+      std::fflush(stdout);
+      return r.median_ms >= 0;
+    };
+    for (int n : {2000, 8000, 20000}) {
+      Rng rng(2000 + (unsigned)n);
+      row({"spiral strip 3 turns", n, lipmap::testgen::overlapping_spiral(n, 3, rng), std::nullopt});
+    }
+    // The costly family: a polygon winding twice around its hub (turning number 3), searched freely; App. C
+    // reduces nothing and the table's entries hold turn masks.
+    for (int n : {500, 1000, 2000, 3000, 4000, 6000, 8000})
+      if (!row({"double loop x2", n, double_loop(2, n - 2), std::nullopt})) break;
+    const Case c{"double loop x2", 8000, double_loop(2, 8000 - 2), std::nullopt};
+    const lipmap::BoundaryPolygon bp = to_boundary(c);
+    lipmap::CancelToken token;
+    const auto t0 = std::chrono::steady_clock::now();
+    token.set_deadline(t0 + std::chrono::seconds(1));
+    try {
+      (void)lipmap::classify(bp, &token);
+      std::printf("\ncancellation: the 8,000-vertex double loop finished within 1 s (nothing to cancel)\n");
+    } catch (const lipmap::Cancelled&) {
+      const double late = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count() - 1000;
+      std::printf("\ncancellation: deadline 1 s into the 8,000-vertex double loop; classify threw %.1f ms after it\n", late);
+    }
+    return 0;
+  }
 
   std::vector<Case> cases;
   const std::vector<int> simple_sizes = quick ? std::vector<int>{100, 300, 1000} : std::vector<int>{100, 300, 1000, 1500, 3000, 5000};

@@ -3,7 +3,9 @@
 #include <pthread.h>
 #include <signal.h>
 
+#include <atomic>
 #include <cstdlib>
+#include <ctime>
 #include <exception>
 #include <memory>
 #include <ostream>
@@ -17,6 +19,33 @@
 #include "server/app/cli.h"
 
 namespace lipmap::cli {
+
+namespace {
+
+// Signals are taken by sigtimedwait on threads that block them; but libraries start threads of their own
+// before main (OpenBLAS's pool) with every signal unblocked, and the kernel may hand SIGTERM to one of them.
+// The handler (not the default action, which would kill the process) counts such a signal for the waiters.
+std::atomic<int> g_stray_signals{0};
+std::atomic<int> g_stray_signal{0};
+void count_stray_signal(int sig) {
+  g_stray_signal.store(sig);
+  g_stray_signals.fetch_add(1);
+}
+
+// The next SIGTERM/SIGINT, whichever thread the kernel gave it to. `seen`: stray signals already taken.
+int wait_for_signal(const sigset_t& signals, int& seen) {
+  const timespec tick{0, 100 * 1000 * 1000};
+  for (;;) {
+    const int sig = sigtimedwait(&signals, nullptr, &tick);
+    if (sig > 0) return sig;
+    if (g_stray_signals.load() > seen) {
+      ++seen;
+      return g_stray_signal.load();
+    }
+  }
+}
+
+}  // namespace
 
 CLI::App* add_serve_subcommand(CLI::App& app, ServeOptions& o) {
   server::ServerConfig& c = o.config;
@@ -33,8 +62,24 @@ CLI::App* add_serve_subcommand(CLI::App& app, ServeOptions& o) {
   cmd->add_option("--queue", c.queue_capacity, "Tasks that may wait for a worker; beyond, 503 + Retry-After")
       ->envname("LIPMAP_QUEUE")
       ->capture_default_str();
-  cmd->add_option("--http-threads", c.http_threads, "Connection threads; 0 = workers + queue + 8")
-      ->envname("LIPMAP_HTTP_THREADS")
+  cmd->add_option("--max-connections,--http-threads", c.http_threads,
+                  "Connections served at once (one thread each; at most 900); beyond, 503 too_many_connections "
+                  "and close; 0 = 512")
+      ->envname("LIPMAP_MAX_CONNECTIONS")
+      ->capture_default_str();
+  cmd->add_option("--admin-port", c.admin_port,
+                  "Also serve /healthz, /readyz and /metrics on this port, with threads of their own; 0 picks a free "
+                  "one (logged); -1 = none")
+      ->envname("LIPMAP_ADMIN_PORT")
+      ->check(CLI::Range(-1, 65535))
+      ->capture_default_str();
+  cmd->add_option("--header-timeout", c.header_timeout_seconds,
+                  "Seconds a request's line and headers may take to arrive, from its first byte; then 408 and close")
+      ->envname("LIPMAP_HEADER_TIMEOUT")
+      ->capture_default_str();
+  cmd->add_option("--request-timeout", c.request_timeout_seconds,
+                  "Seconds a whole request (headers and body) may take to arrive, from its first byte; then 408 and close")
+      ->envname("LIPMAP_REQUEST_TIMEOUT")
       ->capture_default_str();
   cmd->add_option("--max-body-bytes", c.max_body_bytes, "Largest request body; beyond, 413")
       ->envname("LIPMAP_MAX_BODY_BYTES")
@@ -48,6 +93,11 @@ CLI::App* add_serve_subcommand(CLI::App& app, ServeOptions& o) {
   cmd->add_option("--max-polygon-vertices", c.max_polygon_vertices,
                   "Largest boundary polygon; beyond, 422 polygon_too_large")
       ->envname("LIPMAP_MAX_POLYGON_VERTICES")
+      ->capture_default_str();
+  cmd->add_option("--memory-budget", c.memory_budget_bytes,
+                  "Largest estimated peak memory of one request, in bytes; beyond, 413 (body) or 422 "
+                  "memory_budget_exceeded")
+      ->envname("LIPMAP_MEMORY_BUDGET")
       ->capture_default_str();
   cmd->add_option("--deadline", c.deadline_seconds,
                   "Seconds a request or job may take from its arrival; then it is cancelled (504, or job failed)")
@@ -94,7 +144,7 @@ int serve_command(const ServeOptions& options, std::ostream& out, std::ostream& 
     return fail(err, "usage", std::string(e.what()) + " (run 'lipmap serve --help')");
   }
 
-  // Signals are taken by sigwait below, never by a handler: block them before any thread starts so that
+  // Signals are taken by sigtimedwait below: block them before any thread of ours starts so that
   // every thread inherits the mask. A peer that closes its socket must not kill the process either.
   sigset_t signals;
   sigemptyset(&signals);
@@ -102,6 +152,11 @@ int serve_command(const ServeOptions& options, std::ostream& out, std::ostream& 
   sigaddset(&signals, SIGINT);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
   signal(SIGPIPE, SIG_IGN);
+  struct sigaction stray {};
+  stray.sa_handler = count_stray_signal;
+  sigemptyset(&stray.sa_mask);
+  sigaction(SIGTERM, &stray, nullptr);
+  sigaction(SIGINT, &stray, nullptr);
 
   auto sink = std::make_shared<spdlog::sinks::stderr_sink_mt>();
   auto logger = std::make_shared<spdlog::logger>("lipmap", sink);
@@ -118,21 +173,21 @@ int serve_command(const ServeOptions& options, std::ostream& out, std::ostream& 
     return fail(err, "listen_failed", e.what());
   }
 
-  int signal_number = 0;
-  sigwait(&signals, &signal_number);
+  int seen = 0;
+  const int signal_number = wait_for_signal(signals, seen);
   server->log_signal(signal_number == SIGTERM ? "SIGTERM" : "SIGINT", false);
   // A second signal while draining: stop waiting for in-flight work.
-  std::thread([signals, srv = server.get()] {
-    int again = 0;
-    sigwait(&signals, &again);
+  std::thread([signals, seen, srv = server.get()]() mutable {
+    const int again = wait_for_signal(signals, seen);
     srv->log_signal(again == SIGTERM ? "SIGTERM" : "SIGINT", true);
     srv->cancel_all();
   }).detach();
 
   const bool clean = server->shutdown();
   logger->flush();
-  if (!clean) std::_Exit(kExitOk);  // engine threads ignored their cancellation: do not wait on them
-  // The detached signal thread still waits in sigwait; the server object must outlive it.
+  // Engine threads ignored their cancellation: do not wait on them, and say the stop was not clean.
+  if (!clean) std::_Exit(codec::kExitInternalError);
+  // The detached signal thread still waits for a signal; the server object must outlive it.
   server.release();
   return kExitOk;
 }

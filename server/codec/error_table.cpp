@@ -54,6 +54,7 @@ const std::vector<ErrorInfo> kTable = {
     {"not_a_disk", 422, kInvalidMesh, kIn},
     {"mesh_file_unreadable", 422, kInvalidMesh, kIn},
     {"mesh_too_large", 422, "Mesh too large", kIn},
+    {"memory_budget_exceeded", 422, "Request too costly", kIn},
     // Engine options that pass the codec's shape checks but not the engine's (e.g. a target density
     // that would need more than the engine's triangle budget).
     {"invalid_option", 422, kInvalidMesh, kIn},
@@ -113,6 +114,7 @@ const std::vector<ErrorInfo> kTable = {
     {"job_failed", 409, kConflict, kIn},
     {"job_cancelled", 409, kConflict, kIn},
     {"job_gone", 410, "Gone", kIn},
+    {"request_timeout", 408, "Request timeout", kIn},
     {"length_required", 411, "Length required", kIn},
     {"payload_too_large", 413, "Payload too large", kIn},
     {"uri_too_long", 414, "URI too long", kIn},
@@ -135,6 +137,7 @@ const std::vector<ErrorInfo> kTable = {
     {"internal_error", 500, "Internal error", kInternal},
     {"queue_full", 503, "Queue full", kInternal},
     {"shutting_down", 503, "Shutting down", kInternal},
+    {"too_many_connections", 503, "Too many connections", kInternal},
     // The shared job queue (Redis) cannot be reached: job endpoints and /readyz answer this until it is back.
     {"queue_unavailable", 503, "Queue unavailable", kInternal},
     // A job's result is larger than the shared queue keeps (--max-result-bytes).

@@ -1,6 +1,7 @@
 // POST /v1/polygons/classify: the engine's classify stage alone (is the polygon self-overlapping, and how).
 #include "engine/classify.h"
 #include "server/http/handlers.h"
+#include "server/http/memory_budget.h"
 #include "server/http/middleware.h"
 
 // Last: with its OpenSSL support cpp-httplib pulls in <resolv.h>, whose `_res` macro breaks Eigen's headers.
@@ -25,6 +26,9 @@ Answer post_classify(Service& service, const httplib::Request& req) {
                           "the polygon has " + std::to_string(polygon.vertices.size()) +
                               " vertices; this service takes at most " + std::to_string(limit),
                           std::string("/polygon"));
+  const std::size_t cost = classify_cost(polygon.vertices.size());
+  if (cost > request_budget(service.config.memory_budget_bytes, req.body.size()))
+    return over_budget(service.config, cost, req.body.size(), "classifying this polygon");
   const TestHooks hooks = service.hooks_of(req);
   Metrics& metrics = service.metrics;
   return service.run_sync(InputKind::classify, [polygon = std::move(polygon), hooks, &metrics](const CancelToken& token) {

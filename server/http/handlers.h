@@ -42,6 +42,10 @@ Answer get_schema(Service& service, const httplib::Request& req);
 
 // ---- shared by the parametrize, classify and jobs handlers (parametrize_handler.cpp) ----
 
+// 422 memory_budget_exceeded: `what` would take about `estimate` bytes, more than a request with a body of
+// `body_bytes` may (server/http/memory_budget.h).
+Answer over_budget(const ServerConfig& config, std::size_t estimate, std::size_t body_bytes, const std::string& what);
+
 // 415 unless the body is application/json.
 std::optional<Answer> require_json(const httplib::Request& req);
 

@@ -22,11 +22,17 @@ struct ServerConfig {
   int port = 8080;                          // 0: any free port (the bound port is logged and returned by bind())
   std::size_t workers = 0;                  // engine workers; 0: one per core
   std::size_t queue_capacity = 64;          // tasks waiting for a worker; beyond: 503 + Retry-After
-  std::size_t http_threads = 0;             // connection threads; 0: workers + queue_capacity + 8
+  std::size_t http_threads = 0;             // connection capacity (one thread each); 0: 512. Beyond: 503 + close
+  int admin_port = -1;                      // /healthz, /readyz, /metrics on their own listener and threads;
+                                            // -1: none, 0: any free port (logged)
+  double header_timeout_seconds = 10;       // a request's line and headers must arrive within this (then 408)
+  double request_timeout_seconds = 60;      // ... and its whole body within this, both from its first byte
   std::size_t max_body_bytes = 256u << 20;  // 413 beyond
   std::size_t max_vertices = 2000000;       // mesh size limits: 422 mesh_too_large beyond
   std::size_t max_faces = 4000000;
-  std::size_t max_polygon_vertices = 20000; // boundary polygon / classify polygon: 422 polygon_too_large beyond
+  std::size_t max_polygon_vertices = 4000;  // boundary polygon / classify polygon: 422 polygon_too_large beyond
+                                            // (the table: ~2 s and ~70 MB at 4,000; docs/hard-points.md)
+  std::size_t memory_budget_bytes = 1024u << 20;  // a request's estimated peak memory; beyond: 413 / 422
   double deadline_seconds = 300;            // per request or job, from its arrival: 504 / job failed
   double result_ttl_seconds = 900;          // finished jobs are kept this long ...
   std::size_t max_results = 64;             // ... and at most this many (oldest dropped first): then 410 Gone

@@ -152,7 +152,7 @@ std::string Metrics::render(const RuntimeGauges& g) const {
   header(out, "lipmap_queue_capacity", "gauge", "Bound of the task queue; a full queue answers 503.");
   sample(out, "lipmap_queue_capacity", "", static_cast<double>(g.queue_capacity));
   header(out, "lipmap_rejected_total", "counter", "Requests refused before any work, by reason.");
-  for (const char* reason : {"queue_full", "shutting_down"}) {
+  for (const char* reason : {"queue_full", "shutting_down", "too_many_connections"}) {
     auto it = rejected_.find(reason);
     sample(out, "lipmap_rejected_total", label("reason", reason),
            it == rejected_.end() ? 0.0 : static_cast<double>(it->second));

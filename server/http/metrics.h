@@ -50,7 +50,7 @@ public:
   // One engine stage's wall time (pipeline stages, and "classify" for the classify endpoint).
   void observe_stage(const std::string& stage, double seconds);
   void observe_inserted_vertices(long long count);
-  void count_rejected(const std::string& reason);      // queue_full, shutting_down
+  void count_rejected(const std::string& reason);      // queue_full, shutting_down, too_many_connections
   void count_job_finished(const std::string& state);   // succeeded, failed, cancelled
   void count_results_dropped(const std::string& why);  // expired, evicted, deleted
 

@@ -9,7 +9,9 @@
 
 #include "server/codec/error_table.h"
 #include "server/codec/text.h"
+#include "server/http/connection.h"
 #include "server/http/job_store.h"
+#include "server/http/memory_budget.h"
 
 // Last: with its OpenSSL support cpp-httplib pulls in <resolv.h>, whose `_res` macro breaks Eigen's headers.
 #include <httplib.h>
@@ -140,6 +142,8 @@ std::optional<Answer> framing_problem(const Service& service, const httplib::Req
 
 bool pre_routing(Service& service, const httplib::Request& req, httplib::Response& res) {
   begin_request(req, res);
+  // The head is in: from now on the connection's deadline is the whole request's (body included).
+  connection_header_received();
   // No answer is ever partial: Range is ignored. cpp-httplib parsed it into the request (a local of its
   // own, so clearing it is sound), and would cut any answer, problems included, to it.
   const_cast<httplib::Request&>(req).ranges.clear();
@@ -167,10 +171,25 @@ bool pre_routing(Service& service, const httplib::Request& req, httplib::Respons
       send(res, std::move(*a));
       return true;
     }
-    if (!service.pool.full()) return false;
-    send(res, service.submit_refused(WorkerPool::Submit::queue_full));
-    if (length > 0) close_after_answer(res);
-    return true;
+    if (service.pool.full()) {
+      send(res, service.submit_refused(WorkerPool::Submit::queue_full));
+      if (length > 0) close_after_answer(res);
+      return true;
+    }
+    const std::size_t parse_bytes = parse_cost(length, req.get_header_value("Content-Type"));
+    if (parse_bytes > request_budget(service.config.memory_budget_bytes, length)) {
+      Answer a = problem_answer("payload_too_large",
+                                "parsing a body of " + std::to_string(length) + " bytes would take about " +
+                                    mebibytes(parse_bytes) + ", more than this service's memory budget of " +
+                                    mebibytes(service.config.memory_budget_bytes) + " per request");
+      (*a.problem)["limit_bytes"] = service.config.max_body_bytes;
+      (*a.problem)["estimate_bytes"] = parse_bytes;
+      (*a.problem)["budget_bytes"] = service.config.memory_budget_bytes;
+      send(res, std::move(a));
+      if (length > 0) close_after_answer(res);
+      return true;
+    }
+    return false;
   }
   if (!body_method && !chunked) return false;
   Answer a;
@@ -198,7 +217,15 @@ bool error_answer(const Service& service, const httplib::Request& req, httplib::
   if (!res.body.empty() || res.content_length_ > 0) return false;
   Answer a;
   const Route* route = route_of(req.path);
-  if (res.status == 404 && route) {
+  if (connection_timed_out()) {
+    // The request did not arrive whole within its deadline; cpp-httplib only saw a read that failed.
+    res.status = 408;
+    auto seconds = [](double s) { return nlohmann::json(s).dump(); };
+    a = problem_answer("request_timeout", "the request did not arrive in time (headers within " +
+                                              seconds(service.config.header_timeout_seconds) + " s, the whole request within " +
+                                              seconds(service.config.request_timeout_seconds) + " s of its first byte)");
+    a.headers.emplace_back("Connection", "close");
+  } else if (res.status == 404 && route) {
     a = method_not_allowed(*route, req.method);
   } else if (res.status == 404) {
     std::string path = req.path.size() > 200 ? req.path.substr(0, 200) + "..." : req.path;
@@ -246,9 +273,12 @@ void log_request(Service& service, const httplib::Request& req, const httplib::R
   const double ms = ms_since(tl_request.start);
   const Route* route = route_of(req.path);
   const std::string route_name = route ? route->path : "unmatched";
-  service.metrics.observe_request(route_name, req.method, res.status, ms / 1000.0);
-  const auto level = res.status >= 500 ? (res.status == 500 ? spdlog::level::err : spdlog::level::warn)
-                                       : spdlog::level::info;
+  // 499 (as nginx logs it): the client closed the connection before it had the whole answer.
+  const bool cut_off = connection_write_failed();
+  const int status = cut_off ? 499 : res.status;
+  service.metrics.observe_request(route_name, req.method, status, ms / 1000.0);
+  const auto level = status >= 500 ? (status == 500 ? spdlog::level::err : spdlog::level::warn)
+                                   : (cut_off ? spdlog::level::warn : spdlog::level::info);
   auto rounded = [](double v) { return std::round(v * 1000) / 1000; };
   std::string path = req.path.size() > 256 ? req.path.substr(0, 256) + "..." : req.path;
   ordered_json fields{{"event", "request"},
@@ -256,17 +286,32 @@ void log_request(Service& service, const httplib::Request& req, const httplib::R
                       {"method", req.method},
                       {"path", path},
                       {"route", route_name},
-                      {"status", res.status},
+                      {"status", status},
                       {"ms", rounded(ms)},
                       {"bytes_in", req.body.size()},
                       {"bytes_out", res.body.empty() ? res.content_length_ : res.body.size()},
                       {"remote", req.remote_addr}};
+  if (cut_off) fields["sent_status"] = res.status;
   if (!tl_request.problem_code.empty()) fields["code"] = tl_request.problem_code;
   if (tl_request.parse_ms >= 0) fields["parse_ms"] = rounded(tl_request.parse_ms);
   if (tl_request.queue_ms >= 0) fields["queue_ms"] = rounded(tl_request.queue_ms);
   if (tl_request.work_ms >= 0) fields["work_ms"] = rounded(tl_request.work_ms);
   service.event(level, std::move(fields));
   tl_request = RequestContext{};
+}
+
+std::string connection_refusal(Service& service) {
+  const std::string id = new_job_id().substr(0, 16);
+  ordered_json p = problem_answer("too_many_connections",
+                                  "the service is serving its maximum of " + std::to_string(service.config.http_threads) +
+                                      " connections; retry later")
+                       .problem.value();
+  p["request_id"] = id;
+  const std::string body = p.dump(-1, ' ', false, ordered_json::error_handler_t::replace);
+  service.metrics.count_rejected("too_many_connections");
+  service.event(spdlog::level::warn, {{"event", "connection_refused"}, {"request_id", id}, {"code", "too_many_connections"}});
+  return "HTTP/1.1 503 Service Unavailable\r\nContent-Type: application/problem+json\r\nContent-Length: " +
+         std::to_string(body.size()) + "\r\nRetry-After: 1\r\nConnection: close\r\nX-Request-Id: " + id + "\r\n\r\n" + body;
 }
 
 }  // namespace lipmap::server

@@ -51,7 +51,11 @@ bool pre_routing(Service& service, const httplib::Request& req, httplib::Respons
 bool error_answer(const Service& service, const httplib::Request& req, httplib::Response& res);
 void exception_answer(const Service& service, const httplib::Request& req, httplib::Response& res,
                       std::exception_ptr error);
-// The request's log line and its metrics, after the answer was written.
+// The raw answer to a connection beyond the connection cap (server/http/connection.h): a whole HTTP/1.1
+// 503 too_many_connections problem with Retry-After and Connection: close. Counted and logged.
+std::string connection_refusal(Service& service);
+// The request's log line and its metrics, after the answer was written. An answer the client did not take
+// whole (a write failed) is logged with status 499 and the status it was sent with as sent_status.
 void log_request(Service& service, const httplib::Request& req, const httplib::Response& res);
 
 }  // namespace lipmap::server

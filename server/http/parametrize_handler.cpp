@@ -7,6 +7,7 @@
 #include "server/codec/request_loader.h"
 #include "server/codec/text.h"
 #include "server/http/handlers.h"
+#include "server/http/memory_budget.h"
 #include "server/http/middleware.h"
 
 // Last: with its OpenSSL support cpp-httplib pulls in <resolv.h>, whose `_res` macro breaks Eigen's headers.
@@ -18,7 +19,8 @@ using nlohmann::json;
 
 namespace {
 
-std::optional<Answer> check_mesh_limits(const ServerConfig& config, const codec::ParametrizeRequest& r) {
+std::optional<Answer> check_mesh_limits(const ServerConfig& config, const codec::ParametrizeRequest& r,
+                                        std::size_t body_bytes) {
   if (r.mesh.vertices.size() > config.max_vertices)
     return problem_answer("mesh_too_large",
                           "the mesh has " + std::to_string(r.mesh.vertices.size()) +
@@ -34,10 +36,25 @@ std::optional<Answer> check_mesh_limits(const ServerConfig& config, const codec:
                           "the boundary has " + std::to_string(r.boundary.positions.size()) +
                               " positions; this service takes at most " + std::to_string(config.max_polygon_vertices),
                           std::string("/boundary/positions"));
+  const std::size_t cost = parametrize_cost(r.mesh.vertices.size(), r.mesh.faces.size(), r.boundary.positions.size(),
+                                            r.options.target_density);
+  if (cost > request_budget(config.memory_budget_bytes, body_bytes))
+    return over_budget(config, cost, body_bytes, "mapping this mesh");
   return std::nullopt;
 }
 
 }  // namespace
+
+Answer over_budget(const ServerConfig& config, std::size_t estimate, std::size_t body_bytes, const std::string& what) {
+  const std::size_t budget = request_budget(config.memory_budget_bytes, body_bytes);
+  Answer a = problem_answer("memory_budget_exceeded",
+                            what + " would take about " + mebibytes(estimate) + ", more than the " + mebibytes(budget) +
+                                " this service gives a request of " + std::to_string(body_bytes) +
+                                " bytes (--memory-budget, and at most 64 MiB + 128 bytes per body byte)");
+  (*a.problem)["estimate_bytes"] = estimate;
+  (*a.problem)["budget_bytes"] = budget;
+  return a;
+}
 
 std::optional<Answer> require_json(const httplib::Request& req) {
   const std::string raw = req.get_header_value("Content-Type");
@@ -88,7 +105,7 @@ std::variant<ParsedParametrize, Answer> parse_parametrize(Service& service, cons
     return problem_answer(input_problem(e, InputKind::none));
   }
   auto request = std::make_shared<const codec::ParametrizeRequest>(std::move(loaded->request));
-  if (auto a = check_mesh_limits(service.config, *request)) return *a;
+  if (auto a = check_mesh_limits(service.config, *request, req.body.size())) return *a;
   std::shared_ptr<const gltf::Asset> asset;
   if (loaded->asset) asset = std::make_shared<const gltf::Asset>(std::move(*loaded->asset));
   return ParsedParametrize{std::move(request), std::move(asset)};

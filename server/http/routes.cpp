@@ -101,8 +101,9 @@ Answer method_not_allowed(const Route& route, const std::string& method) {
   return a;
 }
 
-void register_routes(httplib::Server& http, Service& service) {
+void register_routes(httplib::Server& http, Service& service, bool admin_only) {
   for (const Route& r : routes()) {
+    if (admin_only && r.path != "/healthz" && r.path != "/readyz" && r.path != "/metrics") continue;
     const std::string pattern = path_pattern(r.path);
     for (const Operation& op : r.operations) {
       auto handler = [&service, &op](const httplib::Request& req, httplib::Response& res) {

@@ -55,7 +55,8 @@ std::string path_pattern(std::string_view path_template);
 // The 405 answer for `method` on `route`, with its Allow header.
 Answer method_not_allowed(const Route& route, const std::string& method);
 
-// Registers every operation of the table with cpp-httplib.
-void register_routes(httplib::Server& http, Service& service);
+// Registers every operation of the table with cpp-httplib; admin_only: only /healthz, /readyz and /metrics
+// (the admin listener, --admin-port).
+void register_routes(httplib::Server& http, Service& service, bool admin_only = false);
 
 }  // namespace lipmap::server

@@ -32,6 +32,10 @@ std::string iso8601(std::chrono::system_clock::time_point t) {
 }
 
 void apply_hooks(const TestHooks& hooks, const CancelToken& token) {
+  if (hooks.fault == "ignore_cancel") {  // work that does not honour its token (the unclean shutdown's test)
+    std::this_thread::sleep_for(std::chrono::milliseconds(hooks.delay_ms));
+    return;
+  }
   if (hooks.delay_ms > 0) {
     const auto until = Clock::now() + std::chrono::milliseconds(hooks.delay_ms);
     while (Clock::now() < until) {

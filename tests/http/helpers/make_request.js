@@ -18,7 +18,8 @@
 //       edge), torus (a torus grid with one triangle removed: one boundary loop, genus 1, not a disk),
 //       closed (a tetrahedron: no boundary), annulus (two boundary loops). Boundary: a square.
 //   node make_request.js polygon BOUNDARY N
-//       A classify body {"polygon": ...} with the same boundary shapes, N vertices.
+//       A classify body {"polygon": ...} with the same boundary shapes, N vertices; also coil (a strip wound
+//       3 turns over itself) and loop2 (a double loop around two hubs: the costly case of the classify table).
 // The body is written to standard output as one line of JSON.
 "use strict";
 
@@ -113,6 +114,31 @@ function polygon(kind, n) {
       const out = [];
       for (let k = 0; k < m; k++) { const a = (2.5 * Math.PI * k) / (m - 1); out.push([2 * Math.cos(a), 2 * Math.sin(a)]); }
       for (let k = m - 1; k >= 0; k--) { const a = (2.5 * Math.PI * k) / (m - 1); out.push([Math.cos(a), Math.sin(a)]); }
+      return out;
+    }
+    case "coil": {
+      // a strip wound 3 turns whose layers overlap (r = 1 + 0.15 t + rho, rho in [0, 1.6 * 0.3 pi]): heavily
+      // self-overlapping, so App. C's ear reduction leaves the table most of it (as tests/support's
+      // overlapping_spiral)
+      const m = Math.max(2, Math.floor(n / 2));
+      const w = 1.6 * 2 * Math.PI * 0.15, turns = 3;
+      const at = (k, rho) => { const t = (2 * Math.PI * turns * k) / (m - 1), r = 1 + 0.15 * t + rho; return [r * Math.cos(t), r * Math.sin(t)]; };
+      const out = [];
+      for (let k = 0; k < m; k++) out.push(at(k, w));
+      for (let k = m - 1; k >= 0; k--) out.push(at(k, 0));
+      return out;
+    }
+    case "loop2": {
+      // two hubs, then n - 2 points winding twice around them (r = 1 + 0.3 cos(t/2)): weakly self-overlapping,
+      // turning number 3, and nothing for the ear reduction: the classify table at full cost (as
+      // bench/bench_classify.cpp's double loop)
+      const m = Math.max(3, n - 2);
+      const ta = Math.PI / 2 + 0.1, tb = Math.PI / 2 + 4 * Math.PI - 0.1;
+      const out = [[-0.05, 0], [0.05, 0]];
+      for (let k = 0; k < m; k++) {
+        const t = ta + ((tb - ta) * k) / (m - 1), r = 1 + 0.3 * Math.cos(t / 2);
+        out.push([r * Math.cos(t), r * Math.sin(t)]);
+      }
       return out;
     }
     default:

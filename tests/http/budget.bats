@@ -1,0 +1,80 @@
+#!/usr/bin/env bats
+# `lipmap serve` against small requests that cost much: a request of at most 1 MB must not grow the service's
+# memory by more than 200 MB (its estimated peak is checked against the memory budget before the engine
+# runs), and a costly classify must give its worker back within its deadline + 1 s.
+
+bats_require_minimum_version 1.5.0
+load helpers/server
+
+setup_file() { require_tools; }
+
+teardown() {
+  check_recorded_answers
+  local n
+  for n in MEM CANCEL; do
+    local pid_var="${n}_PID"
+    if [ -n "${!pid_var:-}" ] && kill -0 "${!pid_var}" 2>/dev/null; then stop_server "$n" || true; fi
+  done
+}
+
+kb() { awk -v k="$2" '$1 == k":" {print $2}' "/proc/$1/status"; }
+
+@test "requests of at most 1 MB grow the RSS by at most 200 MB: costly ones are refused before the engine runs" {
+  start_server MEM --workers 1 --deadline 20 --max-polygon-vertices 100000
+  call GET "$MEM_URL/healthz"
+  expect 200
+  local before peak
+  before="$(kb "$MEM_PID" VmRSS)"
+  # A double loop of 20,000 vertices (< 1 MB): its table would take ~1.7 GB.
+  coil="$(make_body loop20000 polygon loop2 20000)"
+  [ "$(stat -c %s "$coil")" -le 1000000 ]
+  call POST "$MEM_URL/v1/polygons/classify" --json "@$coil"
+  expect 422 memory_budget_exceeded
+  [ "$(jq -r .estimate_bytes "$answer")" -gt "$(jq -r .budget_bytes "$answer")" ]
+  # A small mesh asked for 100 times its triangles: ~20,000 x 100 target triangles.
+  grid="$(make_body grid100 grid 100 spiral)"
+  jq -c '.options.target_density = 100' "$grid" >"$BATS_TEST_TMPDIR/dense.json"
+  [ "$(stat -c %s "$BATS_TEST_TMPDIR/dense.json")" -le 1000000 ]
+  call POST "$MEM_URL/v1/parametrize" --json "@$BATS_TEST_TMPDIR/dense.json"
+  expect 422 memory_budget_exceeded
+  call POST "$MEM_URL/v1/jobs" --json "@$BATS_TEST_TMPDIR/dense.json"
+  expect 422 memory_budget_exceeded
+  # A polygon the table can take (1,000 vertices), a 1 MB body of numbers, the same mesh at its own density:
+  # answered, within the bound.
+  call POST "$MEM_URL/v1/polygons/classify" --json "@$(make_body coil1000 polygon coil 1000)"
+  expect 200
+  { printf '{"polygon": ['; for i in $(seq 60000); do printf '[%d.25,1.5],' "$i"; done; printf '[0,0]]}'; } >"$BATS_TEST_TMPDIR/numbers.json"
+  [ "$(stat -c %s "$BATS_TEST_TMPDIR/numbers.json")" -le 1000000 ]
+  call POST "$MEM_URL/v1/polygons/classify" --json "@$BATS_TEST_TMPDIR/numbers.json"
+  [[ "$code" == 4* ]]
+  call POST "$MEM_URL/v1/parametrize" --json "@$grid"
+  expect 200
+  peak="$(kb "$MEM_PID" VmHWM)"
+  echo "RSS before $((before / 1024)) MB, peak $((peak / 1024)) MB" >&2
+  [ $((peak - before)) -le $((200 * 1024)) ] || { echo "RSS grew by $(((peak - before) / 1024)) MB" >&2; return 1; }
+}
+
+@test "a JSON body whose parsing alone would exceed the budget is refused 413 before it is read" {
+  start_server MEM --workers 1 --memory-budget $((64 << 20))
+  port="${MEM_URL##*:}"
+  out="$(timeout 3 bash -c 'exec 3<>/dev/tcp/127.0.0.1/$1; printf "POST /v1/parametrize HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: 20000000\r\n\r\n{\"mesh\"" >&3; cat <&3' _ "$port")"
+  grep -q '^HTTP/1.1 413' <<<"$out"
+  grep -q '"code":"payload_too_large"' <<<"$out"
+  grep -q '"budget_bytes":' <<<"$out"
+}
+
+@test "a costly classify with a short deadline gives its worker back within the deadline + 1 s" {
+  # 4,000 vertices (the default limit) of a double loop: ~2 s of table fill on an idle core.
+  start_server CANCEL --workers 1 --deadline 1
+  big="$(make_body loop4000 polygon loop2 4000)"
+  local t0 t1
+  t0=$(date +%s%N)
+  call POST "$CANCEL_URL/v1/polygons/classify" --json "@$big"
+  expect 504 deadline_exceeded
+  # The one worker is free again: a small classify is answered at once (well within deadline + 1 s of the
+  # first request's arrival, with time to spare for the answer itself).
+  call POST "$CANCEL_URL/v1/polygons/classify" --max-time 2 --json '{"polygon": [[0,0],[1,0],[0,1]]}'
+  expect 200
+  t1=$(date +%s%N)
+  [ $(((t1 - t0) / 1000000)) -le 3000 ] || { echo "worker busy for $(((t1 - t0) / 1000000)) ms" >&2; return 1; }
+}
