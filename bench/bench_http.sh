@@ -3,26 +3,30 @@
 #
 #   bash bench/bench_http.sh
 #
-# 1. The same job (a BENCH_GRID x BENCH_GRID-vertex grid, 2 (n-1)^2 triangles, mapped onto an annulus sector
+# 1. For each size of BENCH_GRIDS (default 72 355: 10k and 250k triangles), the same job (a GRID x GRID-vertex
+#    grid, 2 (n-1)^2 triangles, mapped onto an annulus sector
 #    wound 1.25 turns, harmonic maps) through `lipmap map REQUEST.json -o OUT.json` and through
 #    `curl --json @REQUEST.json /v1/parametrize` against `lipmap serve --workers 1`, alternating, BENCH_RUNS
 #    times each after a warm-up; wall time per call (process start, reading, mapping, writing / the whole
-#    HTTP exchange), median of each, and their ratio. Both answers are compared (up to timings) to show it is
-#    the same job.
+#    HTTP exchange), median of each, and their ratio; and what HTTP adds to the engine's own total (wall time
+#    of the call minus diagnostics.timings_ms.total), in seconds and in percent. Both answers are compared (up
+#    to timings) to show it is the same job. The 250k job runs BENCH_LARGE_RUNS (3) times.
 # 2. Jobs per second for a small mesh (BENCH_SMALL_GRID, default 10: 162 triangles) through POST
 #    /v1/parametrize with 1 and with 2 workers: wrk on loopback (one thread, BENCH_CONNECTIONS connections,
 #    BENCH_DURATION), every answer 200.
 # Everything runs on 127.0.0.1. Needs node (tests/http/helpers/make_request.js writes the requests) and wrk
 # (scripts/setup.sh --with-bench installs it).
 #
-# Environment: LIPMAP_BUILD_DIR (default build), LIPMAP_JOBS (2), BENCH_RUNS (7), BENCH_GRID (72: 10082
-# triangles), BENCH_SMALL_GRID (10), BENCH_DURATION (10s), BENCH_CONNECTIONS (8).
+# Environment: LIPMAP_BUILD_DIR (default build), LIPMAP_JOBS (2), BENCH_RUNS (7), BENCH_GRIDS ("72 355": 10082
+# and 250632 triangles), BENCH_LARGE_RUNS (3, for grids above 200), BENCH_SMALL_GRID (10), BENCH_DURATION
+# (10s), BENCH_CONNECTIONS (8).
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 build_dir="${LIPMAP_BUILD_DIR:-build}"
 jobs="${LIPMAP_JOBS:-2}"
 runs="${BENCH_RUNS:-7}"
-grid="${BENCH_GRID:-72}"
+grids="${BENCH_GRIDS:-${BENCH_GRID:-72 355}}"
+large_runs="${BENCH_LARGE_RUNS:-3}"
 small="${BENCH_SMALL_GRID:-10}"
 duration="${BENCH_DURATION:-10s}"
 connections="${BENCH_CONNECTIONS:-8}"
@@ -67,6 +71,8 @@ mem="$(awk '/MemTotal/ {printf "%.0f GiB", $2 / 1048576}' /proc/meminfo)"
 echo "machine: $(nproc) cores, $cpu, $mem, $(uname -sr); load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
 
 # ---- 1. the same job: HTTP vs CLI ------------------------------------------------------------------------
+same_job() {  # same_job GRID RUNS
+local grid="$1" runs="$2"
 node tests/http/helpers/make_request.js grid "$grid" spiral --method harmonic >"$work/job.json"
 triangles=$((2 * (grid - 1) * (grid - 1)))
 echo "job: ${grid}x${grid} grid, $triangles triangles, onto a 1.25-turn annulus sector, harmonic; $(wc -c <"$work/job.json") bytes of request"
@@ -109,6 +115,12 @@ printf 'what HTTP adds (wall time of the call minus the engine total in its answ
   "$http_added" "$http_engine" "$(echo "100 * $http_added / $http_engine" | bc -l)" "$(echo "$cli_median - $cli_engine" | bc -l)" "$cli_engine"
 echo "  cli:  $(tr '\n' ' ' <"$work/cli.times")"
 echo "  http: $(tr '\n' ' ' <"$work/http.times")"
+printf 'summary: %d triangles: HTTP adds %.1f%% to the engine (%.3f s on %.3f s)\n' "$triangles" \
+  "$(echo "100 * $http_added / $http_engine" | bc -l)" "$http_added" "$http_engine"
+}
+for g in $grids; do
+  if (( g > 200 )); then same_job "$g" "$large_runs"; else same_job "$g" "$runs"; fi
+done
 
 # ---- 2. jobs per second, 1 and 2 workers --------------------------------------------------------------------
 node tests/http/helpers/make_request.js grid "$small" spiral --method harmonic >"$work/small.json"

@@ -1,7 +1,13 @@
 // Benchmark of the whole engine (engine/pipeline.h) in the form of the paper's Table 1, with CGAL's own Tutte
 // parameterization of the same mesh for comparison.
 //
-//   bench_pipeline [--quick] [--runs N] [--mesh NAME]... [--data DIR] [--budget-s S]
+//   bench_pipeline [--quick] [--runs N] [--mesh NAME]... [--data DIR] [--budget-s S] [--large[=N]]
+//                  [--large-mesh NAME]
+//
+// --large[=N] (N = 1 or 2, default 2): instead of the catalog, rows at ~250k (N >= 1) and ~1M (N = 2) triangles,
+// made here by 1-to-4 subdivision (each triangle into four at its edge midpoints) of one shared mesh
+// (--large-mesh, default max_registration_partial: 63k triangles -> 253k -> 1.01M), each with the per-stage
+// times, CGAL's Tutte in the same run, and summary lines with the growth factor between the sizes.
 //
 // Rows: every disk mesh of tests/data/meshes (DIR/meshes) with two generated targets
 // (tests/support/target_generators.h): a circle, and a self-overlapping boundary by construction (exp_strip,
@@ -51,6 +57,8 @@
 #include "engine/cancel.h"
 #include "engine/error.h"
 #include "engine/mesh_io.h"
+#include "engine/mesh_topology.h"
+#include "subdivide.h"
 #include "engine/pipeline.h"
 #include "tests/support/test_meshes.h"
 
@@ -80,24 +88,19 @@ struct Mesh {
   std::vector<int> loop;
 };
 
+// The boundary loop starting at its lowest vertex (the engine's topology; the bench meshes are disks).
 std::vector<int> boundary_loop(const std::vector<Triangle>& faces, std::size_t nv) {
-  std::map<std::pair<int, int>, int> directed;
-  for (const Triangle& t : faces)
-    for (int c = 0; c < 3; ++c) ++directed[{t[c], t[(c + 1) % 3]}];
-  std::vector<int> next(nv, -1);
-  int start = -1;
-  for (const auto& [e, n] : directed) {
-    if (directed.count({e.second, e.first})) continue;
-    next[e.first] = e.second;
-    if (start < 0 || e.first < start) start = e.first;
-  }
-  std::vector<int> loop;
-  for (int v = start; v >= 0 && loop.size() <= nv;) {
-    loop.push_back(v);
-    v = next[v];
-    if (v == start) break;
-  }
-  return loop;
+  const lipmap::MeshTopology topo(static_cast<int>(nv), faces);
+  return topo.boundary_loops().empty() ? std::vector<int>{} : topo.boundary_loops().front();
+}
+
+// The mesh subdivided 1-to-4 (bench/subdivide.h), with its new boundary loop.
+Mesh subdivide(const Mesh& m) {
+  Mesh out = m;
+  out.name = m.name + "/4";
+  lipmap::bench::subdivide(out.vertices, out.faces);
+  out.loop = boundary_loop(out.faces, out.vertices.size());
+  return out;
 }
 
 Mesh load(const std::string& dir, const lipmap::testmeshes::MeshEntry& entry) {
@@ -149,6 +152,9 @@ struct Row {
   std::string verdict = "-";
   long long vertices = 0, triangles = 0, boundary = 0, inserted = -1, flipped_before = -1;
   double triangulation = -1, maps = -1, compose_refine = -1, untangle_optimize = -1, total = -1, other = -1;
+  // Medians per stage: validate, classify, target_mesh, intermediate_maps, compose, refine, verify, quality.
+  double stage[8] = {-1, -1, -1, -1, -1, -1, -1, -1};
+  long long target_vertices = -1;
   long rss_kb = -1;
   std::string source_solution = "-", target_solution = "-";
 };
@@ -165,7 +171,7 @@ Row run_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs, double 
   b.positions = t.positions;
   if (t.rotation_indices) b.rotation_indices = std::vector<long long>(t.rotation_indices->begin(), t.rotation_indices->end());
   lipmap::ParametrizeOptions options;  // the defaults: harmonic, refine, density 1 (the paper), untangle, optimize mips
-  std::vector<double> tri, maps, cr, uo, total, other;
+  std::vector<double> tri, maps, cr, uo, total, other, stage[8];
   lipmap::CancelToken token;
   token.set_deadline(Clock::now() + std::chrono::milliseconds(static_cast<long long>(budget_s * 1000)));
   for (int r = 0; r < runs; ++r) {
@@ -178,6 +184,10 @@ Row run_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs, double 
       uo.push_back(s.untangle + s.optimize);
       total.push_back(s.total);
       other.push_back(s.validate + s.verify + s.quality);
+      const double each[8] = {s.validate, s.classify, s.target_mesh, s.intermediate_maps,
+                              s.compose, s.refine, s.verify, s.quality};
+      for (int i = 0; i < 8; ++i) stage[i].push_back(each[i]);
+      row.target_vertices = res.target_mesh.vertices;
       row.inserted = static_cast<long long>(res.map.inserted.size());
       row.flipped_before = res.map.flipped_before_refinement;
       row.verdict = lipmap::to_string(res.classification.verdict);
@@ -200,6 +210,7 @@ Row run_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs, double 
   row.untangle_optimize = median(uo);
   row.total = median(total);
   row.other = median(other);
+  for (int i = 0; i < 8; ++i) row.stage[i] = median(stage[i]);
   struct rusage ru {};
   getrusage(RUSAGE_SELF, &ru);
   row.rss_kb = ru.ru_maxrss;
@@ -256,7 +267,12 @@ std::string encode(const Row& r) {
                 r.vertices, r.triangles, r.boundary, r.inserted, r.flipped_before, r.triangulation, r.maps,
                 r.compose_refine, r.total, r.other, r.rss_kb, r.source_solution.c_str(), r.target_solution.c_str(),
                 err.substr(0, 400).c_str(), r.untangle_optimize);
-  return buf;
+  std::string line = buf;
+  for (double v : r.stage) {
+    std::snprintf(buf, sizeof buf, "\t%.6f", v);
+    line += buf;
+  }
+  return line + "\t" + std::to_string(r.target_vertices);
 }
 
 std::vector<std::string> split(const std::string& s) {
@@ -293,6 +309,8 @@ Row decode(const std::string& line) {
   r.target_solution = f[14];
   r.error = f[15];
   r.untangle_optimize = std::atof(f[16].c_str());
+  for (int i = 0; i < 8 && 17 + i < static_cast<int>(f.size()); ++i) r.stage[i] = std::atof(f[17 + i].c_str());
+  if (f.size() > 25) r.target_vertices = std::atoll(f[25].c_str());
   return r;
 }
 
@@ -315,10 +333,72 @@ std::string cpu_model() {
 
 }  // namespace
 
+// One mesh's rows: CGAL's Tutte once, then lipmap on a circle and on the first certified self-overlapping
+// target. Prints the table lines (and, with stages, one line of per-stage times per row); returns the rows.
+struct MeshResult {
+  double cgal_ms = -1;
+  std::vector<std::pair<std::string, Row>> rows;  // (target kind, row)
+};
+
+MeshResult bench_mesh(const Mesh& m, int runs, double budget_s, bool stages) {
+  MeshResult out;
+  const std::string& name = m.name;
+  std::string cgal_error;
+  const std::string cgal_line = isolated([&] {
+    std::string err;
+    const double ms = cgal_tutte_ms(m, runs, &err);
+    return err.empty() ? "cgal\t" + std::to_string(ms) : "error\t" + err;
+  });
+  const std::vector<std::string> cf = split(cgal_line);
+  const double cgal_ms = cf.size() >= 2 && cf[0] == "cgal" ? std::atof(cf[1].c_str()) : -1;
+  out.cgal_ms = cgal_ms;
+  if (cf.empty() || cf[0] != "cgal") cgal_error = cf.size() >= 2 ? cf[1] : cgal_line;
+
+  // Targets: a circle and the first certified self-overlapping kind.
+  std::vector<lipmap::targetgen::Target> targets;
+  std::string why;
+  const lipmap::targetgen::DiskMeshRef ref{m.vertices, m.faces, m.loop};
+  if (auto t = lipmap::targetgen::make_target(Kind::circle, ref, &why)) targets.push_back(*t);
+  for (Kind k : {Kind::exp_strip, Kind::power_map, Kind::cubic_map, Kind::bent_strip})
+    if (auto t = lipmap::targetgen::make_target(k, ref, &why)) {
+      targets.push_back(*t);
+      break;
+    }
+  for (const auto& t : targets) {
+    const Row r = decode(isolated([&] { return encode(run_row(m, t, runs, budget_s)); },
+                                  static_cast<unsigned>(budget_s) + 30));
+    out.rows.emplace_back(lipmap::targetgen::kind_name(t.kind), r);
+    if (!r.error.empty()) {
+      std::printf("%-26s %-11s error: %s\n", name.c_str(), lipmap::targetgen::kind_name(t.kind), r.error.c_str());
+      continue;
+    }
+    char ratio[32] = "-";
+    if (cgal_ms > 0 && r.total > 0) std::snprintf(ratio, sizeof ratio, "%.2f", r.total / cgal_ms);
+    std::printf("%-26s %-11s %-24s %7lld %7lld %6lld %5lld %9s %9s %9s %9s %9s %8s %8.1f %9s %7s\n", name.c_str(),
+                lipmap::targetgen::kind_name(t.kind), r.verdict.c_str(), r.vertices, r.triangles, r.boundary,
+                r.inserted, cell_ms(r.triangulation).c_str(), cell_ms(r.maps).c_str(),
+                cell_ms(r.compose_refine).c_str(), cell_ms(r.untangle_optimize).c_str(), cell_ms(r.total).c_str(),
+                cell_ms(r.other).c_str(),
+                r.rss_kb / 1024.0, cell_ms(cgal_ms).c_str(), ratio);
+    if (stages)
+      std::printf("  stages ms: validate %s, classify %s, target_mesh %s (%lld vertices), intermediate_maps %s, "
+                  "compose %s, refine %s, verify %s, quality %s\n",
+                  cell_ms(r.stage[0]).c_str(), cell_ms(r.stage[1]).c_str(), cell_ms(r.stage[2]).c_str(),
+                  r.target_vertices, cell_ms(r.stage[3]).c_str(), cell_ms(r.stage[4]).c_str(),
+                  cell_ms(r.stage[5]).c_str(), cell_ms(r.stage[6]).c_str(), cell_ms(r.stage[7]).c_str());
+    std::fflush(stdout);
+  }
+  if (!cgal_error.empty()) std::printf("%-26s CGAL Tutte failed: %s\n", name.c_str(), cgal_error.c_str());
+  return out;
+}
+
 int main(int argc, char** argv) {
   int runs = 3;
   double budget_s = 300;
   std::vector<std::string> only;
+  int large = 0;  // subdivision levels of the large rows; 0: the catalog
+  bool stages = false;
+  std::string large_mesh = "max_registration_partial";
   std::string data = default_data_dir();
   if (const char* env = std::getenv("LIPMAP_DATA_DIR"); env && *env) data = env;
   for (int i = 1; i < argc; ++i) {
@@ -327,8 +407,13 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--mesh") && i + 1 < argc) only.push_back(argv[++i]);
     else if (!std::strcmp(argv[i], "--data") && i + 1 < argc) data = argv[++i];
     else if (!std::strcmp(argv[i], "--budget-s") && i + 1 < argc) budget_s = std::max(1.0, std::atof(argv[++i]));
+    else if (!std::strcmp(argv[i], "--large")) large = 2;
+    else if (!std::strncmp(argv[i], "--large=", 8)) large = std::clamp(std::atoi(argv[i] + 8), 1, 2);
+    else if (!std::strcmp(argv[i], "--large-mesh") && i + 1 < argc) large_mesh = argv[++i];
+    else if (!std::strcmp(argv[i], "--stages")) stages = true;
     else {
-      std::printf("usage: %s [--quick] [--runs N] [--mesh NAME]... [--data DIR] [--budget-s S]\n", argv[0]);
+      std::printf("usage: %s [--quick] [--runs N] [--mesh NAME]... [--data DIR] [--budget-s S] [--stages] "
+                  "[--large[=1|2]] [--large-mesh NAME]\n", argv[0]);
       return 0;
     }
   }
@@ -346,54 +431,59 @@ int main(int argc, char** argv) {
               "CGAL Tut", "ratio");
   std::printf("%s\n", std::string(180, '-').c_str());
 
-  // Every disk mesh of the tests' catalog (tests/support/test_meshes.h), with $LIPMAP_EXTRA_MESHES.
-  for (const lipmap::testmeshes::MeshEntry& entry : lipmap::testmeshes::disk_meshes()) {
-    const std::string name = entry.name();
-    if (!only.empty() && std::find(only.begin(), only.end(), name) == only.end()) continue;
-    Mesh m;
-    try {
-      m = load(data, entry);
-    } catch (const std::exception& e) {
-      std::printf("%-26s cannot read: %s\n", name.c_str(), e.what());
-      continue;
-    }
-    std::string cgal_error;
-    const std::string cgal_line = isolated([&] {
-      std::string err;
-      const double ms = cgal_tutte_ms(m, runs, &err);
-      return err.empty() ? "cgal\t" + std::to_string(ms) : "error\t" + err;
-    });
-    const std::vector<std::string> cf = split(cgal_line);
-    const double cgal_ms = cf.size() >= 2 && cf[0] == "cgal" ? std::atof(cf[1].c_str()) : -1;
-    if (cf.empty() || cf[0] != "cgal") cgal_error = cf.size() >= 2 ? cf[1] : cgal_line;
-
-    // Targets: a circle and the first certified self-overlapping kind.
-    std::vector<lipmap::targetgen::Target> targets;
-    std::string why;
-    const lipmap::targetgen::DiskMeshRef ref{m.vertices, m.faces, m.loop};
-    if (auto t = lipmap::targetgen::make_target(Kind::circle, ref, &why)) targets.push_back(*t);
-    for (Kind k : {Kind::exp_strip, Kind::power_map, Kind::cubic_map, Kind::bent_strip})
-      if (auto t = lipmap::targetgen::make_target(k, ref, &why)) {
-        targets.push_back(*t);
-        break;
+  if (large > 0) {
+    // The large rows: one shared mesh subdivided 1-to-4 once (~250k triangles) and, with --large=2, twice (~1M).
+    Mesh base;
+    bool found = false;
+    for (const lipmap::testmeshes::MeshEntry& entry : lipmap::testmeshes::disk_meshes())
+      if (entry.name() == large_mesh) {
+        base = load(data, entry);
+        found = true;
       }
-    for (const auto& t : targets) {
-      const Row r = decode(isolated([&] { return encode(run_row(m, t, runs, budget_s)); },
-                                    static_cast<unsigned>(budget_s) + 30));
-      if (!r.error.empty()) {
-        std::printf("%-26s %-11s error: %s\n", name.c_str(), lipmap::targetgen::kind_name(t.kind), r.error.c_str());
+    if (!found) {
+      std::printf("no disk mesh named %s in the catalog\n", large_mesh.c_str());
+      return 0;
+    }
+    std::vector<MeshResult> results;
+    std::vector<long long> sizes;
+    Mesh m = base;
+    for (int level = 1; level <= large; ++level) {
+      m = subdivide(m);
+      sizes.push_back(static_cast<long long>(m.faces.size()));
+      results.push_back(bench_mesh(m, runs, budget_s, true));
+    }
+    std::printf("\n");
+    for (std::size_t l = 0; l < results.size(); ++l)
+      for (const auto& [kind, r] : results[l].rows) {
+        if (!r.error.empty()) continue;
+        std::printf("summary: %s %lldk triangles, %s: lipmap %.2f s, CGAL Tutte %.2f s, ratio %.2f, peak RSS %.0f MB, "
+                    "inserted %lld, target mesh %lld vertices\n", large_mesh.c_str(), sizes[l] / 1000, kind.c_str(),
+                    r.total / 1000, results[l].cgal_ms / 1000, results[l].cgal_ms > 0 ? r.total / results[l].cgal_ms : -1,
+                    r.rss_kb / 1024.0, r.inserted, r.target_vertices);
+      }
+    if (results.size() == 2)
+      for (std::size_t t = 0; t < results[0].rows.size() && t < results[1].rows.size(); ++t) {
+        const Row &a = results[0].rows[t].second, &b = results[1].rows[t].second;
+        if (!a.error.empty() || !b.error.empty()) continue;
+        std::printf("summary: growth %lldk -> %lldk triangles (%.2fx), %s: lipmap total %.2fx, two maps %.2fx, "
+                    "CGAL Tutte %.2fx, peak RSS %.2fx\n", sizes[0] / 1000, sizes[1] / 1000,
+                    double(sizes[1]) / double(sizes[0]), results[0].rows[t].first.c_str(), b.total / a.total,
+                    b.stage[3] / a.stage[3], results[1].cgal_ms / results[0].cgal_ms, double(b.rss_kb) / double(a.rss_kb));
+      }
+  } else {
+    // Every disk mesh of the tests' catalog (tests/support/test_meshes.h), with $LIPMAP_EXTRA_MESHES.
+    for (const lipmap::testmeshes::MeshEntry& entry : lipmap::testmeshes::disk_meshes()) {
+      const std::string name = entry.name();
+      if (!only.empty() && std::find(only.begin(), only.end(), name) == only.end()) continue;
+      Mesh m;
+      try {
+        m = load(data, entry);
+      } catch (const std::exception& e) {
+        std::printf("%-26s cannot read: %s\n", name.c_str(), e.what());
         continue;
       }
-      char ratio[32] = "-";
-      if (cgal_ms > 0 && r.total > 0) std::snprintf(ratio, sizeof ratio, "%.2f", r.total / cgal_ms);
-      std::printf("%-26s %-11s %-24s %7lld %7lld %6lld %5lld %9s %9s %9s %9s %9s %8s %8.1f %9s %7s\n", name.c_str(),
-                  lipmap::targetgen::kind_name(t.kind), r.verdict.c_str(), r.vertices, r.triangles, r.boundary,
-                  r.inserted, cell_ms(r.triangulation).c_str(), cell_ms(r.maps).c_str(),
-                  cell_ms(r.compose_refine).c_str(), cell_ms(r.untangle_optimize).c_str(), cell_ms(r.total).c_str(), cell_ms(r.other).c_str(),
-                  r.rss_kb / 1024.0, cell_ms(cgal_ms).c_str(), ratio);
-      std::fflush(stdout);
+      bench_mesh(m, runs, budget_s, stages);
     }
-    if (!cgal_error.empty()) std::printf("%-26s CGAL Tutte failed: %s\n", name.c_str(), cgal_error.c_str());
   }
   std::printf("\ncolumns: triang. = classify + target mesh; 2 maps = both intermediate maps onto the disk; comp+ref = "
               "compose + refine; unt+opt = untangle + optimize; total = the whole parametrize call; other = validate + verify + quality (inside "

@@ -3,6 +3,7 @@
 #include "engine/mesh_topology.h"
 
 #include <algorithm>
+#include <utility>
 
 namespace lipmap {
 
@@ -27,24 +28,30 @@ int MeshTopology::find_edge(int a, int b) const {
   return -1;
 }
 
-// Half-edges bucketed by their lower vertex, each bucket sorted by (upper vertex, half-edge): the half-edges
-// of one edge are then adjacent, the first of each run is the edge's first appearance.
+// Half-edges bucketed by their lower vertex (a counting sort), each bucket sorted by (upper vertex, half-edge):
+// the half-edges of one edge are then adjacent, the first of each run is the edge's first appearance. The
+// buckets carry their upper vertex with them, so the sorts read contiguous memory.
 void MeshTopology::build_edges() {
   const int H = halfedge_count();
   std::vector<int> begin(static_cast<std::size_t>(vertex_count_) + 1, 0);
   for (int h = 0; h < H; ++h) ++begin[std::min(from(h), to(h)) + 1];
   for (int v = 0; v < vertex_count_; ++v) begin[v + 1] += begin[v];
-  std::vector<int> bucket(H);
+  std::vector<std::pair<int, int>> bucket(H);  // (upper vertex, half-edge); half-edges ascending per bucket
   {
     std::vector<int> fill(begin.begin(), begin.end() - 1);
-    for (int h = 0; h < H; ++h) bucket[fill[std::min(from(h), to(h))]++] = h;
+    for (int h = 0; h < H; ++h) {
+      const int a = from(h), b = to(h);
+      bucket[fill[std::min(a, b)]++] = {std::max(a, b), h};
+    }
   }
   std::vector<int> first(H);  // per half-edge: the first half-edge of its edge
   for (int v = 0; v < vertex_count_; ++v) {
     const auto b = bucket.begin() + begin[v], e = bucket.begin() + begin[v + 1];
-    auto upper = [&](int h) { return std::max(from(h), to(h)); };
-    if (e - b > 1) std::sort(b, e, [&](int x, int y) { return upper(x) != upper(y) ? upper(x) < upper(y) : x < y; });
-    for (auto it = b; it != e; ++it) first[*it] = (it != b && upper(*it) == upper(*(it - 1))) ? first[*(it - 1)] : *it;
+    // Insertion sort: buckets hold a vertex's few edges, already ordered by half-edge.
+    for (auto it = b + (b != e); it < e; ++it)
+      for (auto j = it; j != b && *j < *(j - 1); --j) std::iter_swap(j, j - 1);
+    for (auto it = b; it != e; ++it)
+      first[it->second] = (it != b && it->first == (it - 1)->first) ? first[(it - 1)->second] : it->second;
   }
   edge_of_.resize(H);
   int edges = 0;
@@ -55,6 +62,13 @@ void MeshTopology::build_edges() {
   edge_uses_.resize(H);
   std::vector<int> fill(edge_first_use_.begin(), edge_first_use_.end() - 1);
   for (int h = 0; h < H; ++h) edge_uses_[fill[edge_of_[h]]++] = h;
+  opposite_.assign(H, -1);
+  for (int e = 0; e < edges; ++e)
+    if (edge_first_use_[e + 1] - edge_first_use_[e] == 2) {
+      const int a = edge_uses_[edge_first_use_[e]], b = edge_uses_[edge_first_use_[e] + 1];
+      opposite_[a] = b;
+      opposite_[b] = a;
+    }
 }
 
 // Clockwise around v: from h (v -> a in face f) to next(opposite(h)), the half-edge leaving v in the face

@@ -50,11 +50,7 @@ public:
   int to(int h) const { return corner_[next(h)]; }
   int edge(int h) const { return edge_of_[h]; }
   // The other half-edge of h's edge when exactly two faces use that edge, else -1 (boundary or non-manifold).
-  int opposite(int h) const {
-    const int e = edge_of_[h], b = edge_first_use_[e];
-    if (edge_first_use_[e + 1] - b != 2) return -1;
-    return edge_uses_[b] == h ? edge_uses_[b + 1] : edge_uses_[b];
-  }
+  int opposite(int h) const { return opposite_[h]; }
   // The face across edge (corner k, corner k + 1) of face f, or -1.
   int across(int f, int k) const {
     const int o = opposite(3 * f + k);
@@ -103,6 +99,7 @@ private:
   std::vector<int> edge_of_;          // per half-edge
   std::vector<int> edge_first_use_;   // per edge, CSR into edge_uses_ (size E + 1)
   std::vector<int> edge_uses_;        // half-edges of each edge, ascending
+  std::vector<int> opposite_;         // per half-edge: opposite(h), stored (the walks' hottest lookup)
   bool oriented_manifold_ = false;
   int broken_fan_vertex_ = -1;
   std::vector<int> fan_begin_;        // per vertex, CSR into fan_ (size V + 1)

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <optional>
 #include <string>
 
 #include "engine/compose.h"
@@ -149,8 +150,13 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
   // The stages work at a normalized scale (see scale_exponent); out keeps the caller's values.
   const int mesh_k = mesh_exponent(input.mesh.vertices);
   const int polygon_k = polygon_exponent(out.polygon.vertices);
-  DiskMesh work_mesh = input.mesh;
-  for (Point3& p : work_mesh.vertices) p = scaled(p, -mesh_k);
+  // At ordinary scales (nearly always) the stages read the validated mesh itself, topology included: no copy.
+  std::optional<DiskMesh> scaled_mesh;
+  if (mesh_k != 0) {
+    scaled_mesh = input.mesh;
+    for (Point3& p : scaled_mesh->vertices) p = scaled(p, -mesh_k);
+  }
+  const DiskMesh& work_mesh = scaled_mesh ? *scaled_mesh : input.mesh;
   BoundaryPolygon work_polygon = out.polygon;
   for (Point2& p : work_polygon.vertices) p = scaled(p, -polygon_k);
 
@@ -213,8 +219,14 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
     });
   }
   // Quality is scale-invariant: measured at the working scale, where areas neither overflow nor underflow.
-  std::vector<Point3> work_vertices = out.map.vertices;
-  std::vector<Point2> work_uv = out.map.uv;
+  // (Copies only when a scale applies: otherwise to_caller_scale leaves the values as they are.)
+  const bool rescaled = mesh_k != 0 || polygon_k != 0;
+  std::vector<Point3> work_vertices;
+  std::vector<Point2> work_uv;
+  if (rescaled) {
+    work_vertices = out.map.vertices;
+    work_uv = out.map.uv;
+  }
   to_caller_scale(out.map, input.mesh, input.boundary.loop, out.polygon, polygon_k);
   out.flipped = count_non_positive(out.map.uv, out.map.faces);
 
@@ -224,7 +236,10 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
     });
   }
   out.distortion = run_stage(Stage::quality, time.quality, cancel, progress,
-                             [&] { return conformal_distortion(work_vertices, out.map.faces, work_uv); });
+                             [&] {
+    return conformal_distortion(rescaled ? work_vertices : out.map.vertices, out.map.faces,
+                                rescaled ? work_uv : out.map.uv);
+  });
   time.total = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
   return out;
 }

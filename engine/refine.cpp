@@ -199,7 +199,7 @@ private:
       if (mesh.is_boundary_vertex(v)) continue;
       bool all_positive = true;
       for (int h : mesh.fan(v)) all_positive = all_positive && !bad[MeshTopology::face_of(h)];
-      if (all_positive && winding(v) != 1)
+      if (all_positive && positive_winding(v) != 1)
         for (int h : mesh.fan(v)) bad[MeshTopology::face_of(h)] = 1;
     }
     std::vector<int> out;
@@ -212,12 +212,22 @@ private:
   // Each side of a corner points at the first remaining point on that edge, or at the far vertex.
   int winding(int v) const {
     const MeshTopology& mesh = source_.topology;
-    std::vector<detail::FanCorner> fan;
+    std::vector<detail::FanCorner>& fan = fan_scratch_;  // reused: no allocation per vertex
+    fan.clear();
     for (int h : mesh.fan(v)) {
       const int g = MeshTopology::prev(h);
       fan.push_back({mesh.to(h), mesh.from(g), ray_point(v, mesh.edge(h)), ray_point(v, mesh.edge(g))});
     }
     return detail::fan_turns(pt(uv_[v]), fan);
+  }
+
+  // winding(v) before any point is inserted, when every face around v is strictly positive: each corner
+  // then sweeps less than pi from next to prev, and the comparison count of App. B's turns applies.
+  int positive_winding(int v) const {
+    const MeshTopology& mesh = source_.topology;
+    detail::PositiveChainTurns turns(pt(uv_[v]));
+    for (int h : mesh.fan(v)) turns.add(pt(uv_[mesh.to(h)]), pt(uv_[mesh.from(MeshTopology::prev(h))]));
+    return turns.turns();
   }
 
   // Where the image of edge e leaves v: its first remaining point seen from v, or its other end.
@@ -452,6 +462,7 @@ private:
   void triangulate_all() {
     const int nf = static_cast<int>(faces_.size());
     triangles_.assign(nf, {});
+    as_is_.assign(nf, 0);
     subdivisions_.assign(nf, 0);
     std::vector<int> work(nf);
     for (int f = 0; f < nf; ++f) work[f] = nf - 1 - f;
@@ -465,7 +476,8 @@ private:
       if (!has_points(f)) {  // the common case: the source triangle itself, when its image is positive
         const Triangle& t = faces_[f];
         if (detail::orient(pt(uv_[t[0]]), pt(uv_[t[1]]), pt(uv_[t[2]])) > 0) {
-          triangles_[f].assign(1, {t[0], t[1], t[2]});
+          triangles_[f].clear();
+          as_is_[f] = 1;
           continue;
         }
       }
@@ -476,6 +488,7 @@ private:
       } else {
         tri = triangulate(poly);
       }
+      as_is_[f] = 0;
       if (tri) {
         triangles_[f].clear();
         for (const Triangle& t : *tri) triangles_[f].push_back({key(poly[t[0]]), key(poly[t[1]]), key(poly[t[2]])});
@@ -585,8 +598,13 @@ private:
         out.inserted.push_back({a, b, p.t});
       }
     }
-    for (const auto& tris : triangles_) {
-      for (const auto& t : tris) {
+    out.faces.reserve(faces_.size());
+    for (std::size_t f = 0; f < triangles_.size(); ++f) {
+      if (as_is_[f]) {  // the source face itself: its corners are original vertices
+        out.faces.push_back(faces_[f]);
+        continue;
+      }
+      for (const auto& t : triangles_[f]) {
         Triangle face;
         for (int c = 0; c < 3; ++c) {
           const long long v = t[c];
@@ -616,7 +634,11 @@ private:
   std::vector<std::vector<EdgePoint>> points_;
   std::vector<char> edge_done_;
 
+  // Per face: its triangles in vertex keys, or as_is_[f] for the source face itself (the common case, kept
+  // out of triangles_ so that a map with nothing to refine allocates nothing per face).
   std::vector<std::vector<std::array<long long, 3>>> triangles_;
+  std::vector<char> as_is_;
+  mutable std::vector<detail::FanCorner> fan_scratch_;  // winding()'s one-ring
   std::vector<int> failed_faces_;
   std::vector<int> subdivisions_;  // per face: how often the fallback halved its edges
   static constexpr int kMaxSubdivisions = 6;

@@ -70,6 +70,7 @@ public:
   Relocation run(const CancelToken* cancel) {
     Relocation out;
     out.flipped_before = count_non_positive(uv_, source_.faces);
+    if (out.flipped_before == 0) return out;  // nothing is tangled: the sweeps would move nothing
     // Every move lowers the number of non-positive triangles (only v's own change), and a move can free its
     // neighbours' moves, so a few sweeps over the vertices still next to a flip settle it.
     for (int sweep = 0; sweep < kSweeps; ++sweep) {

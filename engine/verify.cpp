@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <string>
 
 #include "engine/detail/exact_predicates.h"
@@ -26,8 +27,17 @@ int area_exponent(const std::vector<Point3>& vertices) {
   return k;
 }
 
-double area3(Point3 a, Point3 b, Point3 c, int k) {
-  for (Point3* p : {&a, &b, &c}) *p = {std::ldexp(p->x, -k), std::ldexp(p->y, -k), std::ldexp(p->z, -k)};
+// x * 2^-k: a product by an exact power of two is rounded once, like ldexp, so both give the same double;
+// the product is much cheaper, and serves whenever 2^-k itself is a normal double.
+struct Scale {
+  explicit Scale(int k) : k(k), factor(k > -1000 && k < 1000 ? std::ldexp(1.0, -k) : 0) {}
+  double operator()(double x) const { return factor != 0 ? x * factor : std::ldexp(x, -k); }
+  int k;
+  double factor;
+};
+
+double area3(Point3 a, Point3 b, Point3 c, const Scale& s) {
+  for (Point3* p : {&a, &b, &c}) *p = {s(p->x), s(p->y), s(p->z)};
   const double ux = b.x - a.x, uy = b.y - a.y, uz = b.z - a.z;
   const double vx = c.x - a.x, vy = c.y - a.y, vz = c.z - a.z;
   const double cx = uy * vz - uz * vy, cy = uz * vx - ux * vz, cz = ux * vy - uy * vx;
@@ -82,7 +92,7 @@ VerifyReport verify_map(const DiskMesh& source, const std::vector<int>& loop, co
     return iv.a == std::min(a, b) && iv.b == std::max(a, b);
   };
   double area = 0, source_area = 0;
-  const int area_k = area_exponent(source.vertices);
+  const Scale area_k(area_exponent(source.vertices));
   std::vector<char> used(nv, 0);
   for (std::size_t f = 0; f < map.faces.size(); ++f) {
     const Triangle& t = map.faces[f];
@@ -110,8 +120,13 @@ VerifyReport verify_map(const DiskMesh& source, const std::vector<int>& loop, co
              std::to_string(iv.b));
     }
   }
-  // The result's own topology: an oriented manifold whose boundary edges are source boundary edges.
-  const MeshTopology mesh(nv, map.faces);
+  // The result's own topology: an oriented manifold whose boundary edges are source boundary edges. When
+  // nothing was inserted and the faces are the source's own, that is validate's topology (built once).
+  const bool same_faces = nv == nv_source && map.faces == source.faces &&
+                          source.topology.face_count() == static_cast<int>(source.faces.size());
+  std::optional<MeshTopology> own;
+  if (!same_faces) own.emplace(nv, map.faces);
+  const MeshTopology& mesh = same_faces ? source.topology : *own;
   for (int e = 0; e < mesh.edge_count(); ++e) {
     const HalfedgeRange uses = mesh.edge_uses(e);
     const int a = mesh.from(uses[0]), b = mesh.to(uses[0]);
@@ -139,13 +154,16 @@ VerifyReport verify_map(const DiskMesh& source, const std::vector<int>& loop, co
       fail("vertex " + std::to_string(v) + (k >= 0 ? " is not on the result's boundary" : " is on the result's boundary"));
     if (k >= 0 && (first != loop[(k + 1) % n] || last != loop[(k + n - 1) % n]))
       fail("faces around vertex " + std::to_string(v) + " do not run from its next boundary vertex to its previous one");
-    detail::TurnCount count(uv[v], uv[first]);
-    for (std::size_t i = fan.size(); i-- > 0;) count.add(uv[mesh.to(fan[i])], uv[mesh.from(MeshTopology::prev(fan[i]))]);
     if (k < 0) {
+      // Every face is strictly positive (3.), so each corner sweeps less than pi: the comparison count.
+      detail::PositiveChainTurns count(uv[v]);
+      for (int h : fan) count.add(uv[mesh.to(h)], uv[mesh.from(MeshTopology::prev(h))]);
       if (count.turns() != 1)
         fail("interior vertex " + std::to_string(v) + " has angle sum " + std::to_string(count.turns()) + " x 2 pi");
       ++report.interior_vertices_checked;
     } else {
+      detail::TurnCount count(uv[v], uv[first]);
+      for (std::size_t i = fan.size(); i-- > 0;) count.add(uv[mesh.to(fan[i])], uv[mesh.from(MeshTopology::prev(fan[i]))]);
       const int r = detail::rotation_index(uv[v], uv[first], uv[last], count.turns());
       if (r != rotation[k])
         fail("boundary vertex " + std::to_string(v) + " has rotation index " + std::to_string(r) + " instead of " +

@@ -9,6 +9,7 @@
 // coordinates.
 #pragma once
 
+#include <cmath>
 #include <vector>
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
@@ -28,8 +29,23 @@ inline int orient(const Point2& a, const Point2& b, const Point2& c) {
   return orient(Pt(a.x, a.y), Pt(b.x, b.y), Pt(c.x, c.y));
 }
 
-// Three points of space on one line (a triangle of zero area), exactly.
+// Three points of space on one line (a triangle of zero area), exactly. They are collinear exactly when the
+// three coordinate-plane projections of the triangle all have a zero orientation determinant. A projection
+// whose determinant, computed in double, exceeds Shewchuk's forward error bound for it (orient2d's
+// ccwerrboundA, valid without underflow: the products are checked to be far from it) is certainly not
+// zero, so the triangle is not flat: that settles almost every call at the cost of a few multiplications;
+// the rest go to CGAL's exact predicate.
 inline bool collinear(const Point3& a, const Point3& b, const Point3& c) {
+  constexpr double eps = 0x1p-53;
+  constexpr double bound = (3.0 + 16.0 * eps) * eps;
+  auto certainly_nonzero = [&](double ax, double ay, double bx, double by, double cx, double cy) {
+    const double l = (ax - cx) * (by - cy), r = (ay - cy) * (bx - cx);
+    const double sum = std::abs(l) + std::abs(r);
+    return sum > 0x1p-900 && sum < 0x1p+900 && std::abs(l - r) > bound * sum;
+  };
+  if (certainly_nonzero(a.x, a.y, b.x, b.y, c.x, c.y) || certainly_nonzero(a.y, a.z, b.y, b.z, c.y, c.z) ||
+      certainly_nonzero(a.z, a.x, b.z, b.x, c.z, c.x))
+    return false;
   using P3 = Kernel::Point_3;
   return CGAL::collinear(P3(a.x, a.y, a.z), P3(b.x, b.y, b.z), P3(c.x, c.y, c.z));
 }
@@ -117,6 +133,22 @@ inline int turning_number(const std::vector<Pt>& p) {
   }
   return turns;
 }
+
+// Full turns of a closed chain of corner sweeps at c when every sweep is strictly between 0 and pi (each
+// corner's triangle (c, from, to) strictly positive; the caller has checked it): the chained angle is
+// 2 pi * turns, and each full turn passes the direction of angle 0 exactly once, so the turns are the
+// sweeps that start in the lower half-plane of directions [pi, 2 pi) and end in the upper one [0, pi). The
+// same count as TurnCount over the chain, from coordinate comparisons only (no orientation test).
+class PositiveChainTurns {
+public:
+  explicit PositiveChainTurns(const Pt& center) : center_(center) {}
+  void add(const Pt& from, const Pt& to) { turns_ += (!points_up(center_, from) && points_up(center_, to)) ? 1 : 0; }
+  int turns() const { return turns_; }
+
+private:
+  Pt center_;
+  int turns_ = 0;
+};
 
 // A spike vertex (v_{i+1} on the ray towards v_{i-1}) has interior angle 2 pi: zero sweep plus one turn.
 inline std::vector<int> spike_turns(const std::vector<Pt>& p) {

@@ -256,7 +256,7 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
       write_obj(text, result.map.vertices, result.map.faces, &result.map.uv);
       write_text_file(args.output_file, text.str());
     } else {
-      write_text_file(args.output_file, codec::dump(codec::parametrize_result_to_json(result), args.pretty) + "\n");
+      write_text_file(args.output_file, codec::parametrize_result_to_text(result, args.pretty) + "\n");
     }
     if (!args.preview_file.empty())
       write_text_file(args.preview_file, preview::render_svg(preview::picture_of(result, "lipmap map " + args.mesh_file)));

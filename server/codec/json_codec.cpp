@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "engine/pipeline.h"
+#include "server/codec/json_internal.h"
 
 namespace lipmap::codec {
 
@@ -41,11 +42,8 @@ struct Path {
   throw JsonError(code, message, at.str());
 }
 
-std::string quote_key(std::string_view s) {
-  // Keys come from the (UTF-8 validated) body; dump() escapes quotes and control characters so that a
-  // message stays on one line.
-  return json(std::string(s)).dump(-1, ' ', false, json::error_handler_t::replace);
-}
+using detail::DomBuilder;
+using detail::quote_key;
 
 const char* type_phrase(const json& v) {
   switch (v.type()) {
@@ -199,111 +197,6 @@ double non_negative(const json& v, const Path& at) {
   return d;
 }
 
-// ---- the parser's output: a DOM built through nlohmann's SAX interface ---------------------------------
-// nlohmann does all the lexing and parsing; this only builds the tree while keeping track of where it
-// is, so that errors the parser finds (overflow, syntax) still come with a JSON pointer, and so that
-// duplicate keys and absurd nesting are refused instead of silently accepted.
-class DomBuilder {
-public:
-  explicit DomBuilder(json& root) : root_(root) {}
-
-  bool null() { return put(nullptr); }
-  bool boolean(bool b) { return put(b); }
-  bool number_integer(json::number_integer_t v) { return put(v); }
-  bool number_unsigned(json::number_unsigned_t v) { return put(v); }
-  bool number_float(json::number_float_t v, const json::string_t& token) {
-    if (!std::isfinite(v)) return stop("non_finite_number", "number " + token + " does not fit in a double");
-    return put(v);
-  }
-  bool string(json::string_t& s) { return put(std::move(s)); }
-  bool binary(json::binary_t& b) { return put(std::move(b)); }
-
-  bool start_object(std::size_t) { return open(json::value_t::object); }
-  bool key(json::string_t& k) {
-    Frame& f = stack_.back();
-    if (f.value->contains(k)) {
-      f.key = k;
-      return stop("duplicate_key", "key " + quote_key(k) + " appears more than once in the same object");
-    }
-    f.key = std::move(k);
-    return true;
-  }
-  bool end_object() { stack_.pop_back(); return true; }
-  bool start_array(std::size_t) { return open(json::value_t::array); }
-  bool end_array() { stack_.pop_back(); return true; }
-
-  bool parse_error(std::size_t position, const std::string& last_token, const nlohmann::detail::exception& ex) {
-    if (ex.id == 406) {  // out_of_range.406: a number literal that overflows a double
-      std::string token = last_token.size() > 40 ? last_token.substr(0, 40) + "..." : last_token;
-      return stop("non_finite_number", "number " + token + " does not fit in a double");
-    }
-    // "[json.exception.parse_error.101] parse error at line 1, column 5: syntax error ..." -> the part
-    // after the bracketed id, cut to a sane length (the last token of a huge string is huge).
-    std::string what = ex.what();
-    if (auto p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
-    if (what.size() > 200) what = what.substr(0, 200) + "...";
-    for (char& c : what)
-      if (static_cast<unsigned char>(c) < 0x20) c = ' ';
-    error_.emplace("invalid_json", what, pointer(), static_cast<long long>(position));
-    return false;
-  }
-
-  std::optional<JsonError>& error() { return error_; }
-
-private:
-  struct Frame {
-    json* value;
-    std::string key;  // objects: the member being read
-  };
-
-  json* slot() {
-    if (stack_.empty()) return &root_;
-    Frame& f = stack_.back();
-    if (f.value->is_array()) {
-      f.value->push_back(nullptr);
-      return &f.value->back();
-    }
-    return &(*f.value)[f.key];
-  }
-  bool put(json v) {
-    *slot() = std::move(v);
-    return true;
-  }
-  bool open(json::value_t type) {
-    if (stack_.size() >= static_cast<std::size_t>(kMaxNesting))
-      return stop("nesting_too_deep", "arrays and objects are nested deeper than " + std::to_string(kMaxNesting));
-    json* s = slot();
-    *s = json(type);
-    stack_.push_back(Frame{s, {}});
-    return true;
-  }
-  bool stop(const char* code, const std::string& message) {
-    error_.emplace(code, message, pointer());
-    return false;
-  }
-  // Where the parser is: the member or element being read in every open container.
-  std::string pointer() const {
-    // An open array's last element is the open container below it; the innermost array's next element
-    // is the value being read.
-    std::string out;
-    for (std::size_t i = 0; i < stack_.size(); ++i) {
-      const Frame& f = stack_[i];
-      out += '/';
-      if (f.value->is_array()) {
-        std::size_t n = f.value->size();
-        out += std::to_string(i + 1 < stack_.size() && n > 0 ? n - 1 : n);
-      } else {
-        out += escape_pointer_token(f.key);
-      }
-    }
-    return out;
-  }
-
-  json& root_;
-  std::vector<Frame> stack_;
-  std::optional<JsonError> error_;
-};
-
 ordered_json triangles_json(const std::vector<Triangle>& triangles) {
   ordered_json out = ordered_json::array();
   for (const Triangle& t : triangles) out.push_back({t[0], t[1], t[2]});
@@ -311,6 +204,12 @@ ordered_json triangles_json(const std::vector<Triangle>& triangles) {
 }
 
 }  // namespace
+
+std::string detail::quote_key(std::string_view s) {
+  // Keys come from the (UTF-8 validated) body; dump() escapes quotes and control characters so that a
+  // message stays on one line.
+  return json(std::string(s)).dump(-1, ' ', false, json::error_handler_t::replace);
+}
 
 std::string escape_pointer_token(std::string_view token) {
   std::string out;
@@ -532,8 +431,7 @@ Classification classification_from_json(const json& answer) {
 
 // ---- text -------------------------------------------------------------------------------------------
 
-namespace {
-void dump_pretty(const ordered_json& v, int depth, std::string& out) {
+void detail::dump_pretty(const ordered_json& v, int depth, std::string& out) {
   constexpr auto replace = ordered_json::error_handler_t::replace;
   const std::string indent(2 * (depth + 1), ' '), close(2 * depth, ' ');
   if (v.is_object() && !v.empty()) {
@@ -564,12 +462,11 @@ void dump_pretty(const ordered_json& v, int depth, std::string& out) {
     out += v.dump(-1, ' ', false, replace);
   }
 }
-}  // namespace
 
 std::string dump(const ordered_json& value, bool pretty) {
   if (!pretty) return value.dump(-1, ' ', false, ordered_json::error_handler_t::replace);
   std::string out;
-  dump_pretty(value, 0, out);
+  detail::dump_pretty(value, 0, out);
   return out;
 }
 
@@ -650,7 +547,7 @@ const char* solution_name(DiskMapSolution s) {
 }
 }  // namespace
 
-ordered_json parametrize_result_to_json(const lipmap::ParametrizeResult& r) {
+ordered_json detail::result_json(const lipmap::ParametrizeResult& r, bool big) {
   ordered_json out;
   const Classification& c = r.classification;
   out["verdict"] = verdict_name(c.verdict);
@@ -664,20 +561,23 @@ ordered_json parametrize_result_to_json(const lipmap::ParametrizeResult& r) {
 
   const RefinedMap& m = r.map;
   ordered_json vertices = ordered_json::array();
-  vertices.get_ref<ordered_json::array_t&>().reserve(m.vertices.size());
-  for (const Point3& p : m.vertices) vertices.push_back({p.x, p.y, p.z});
-  out["mesh"] = {{"vertices", std::move(vertices)}, {"faces", triangles_json(m.faces)}};
   ordered_json uv = ordered_json::array();
-  uv.get_ref<ordered_json::array_t&>().reserve(m.uv.size());
-  for (const Point2& p : m.uv) uv.push_back({p.x, p.y});
-  out["uv"] = std::move(uv);
   ordered_json inserted = ordered_json::array();
-  for (const InsertedVertex& v : m.inserted) {
-    ordered_json e;
-    e["edge"] = {v.a, v.b};
-    e["t"] = v.t;
-    inserted.push_back(std::move(e));
+  if (big) {
+    vertices.get_ref<ordered_json::array_t&>().reserve(m.vertices.size());
+    for (const Point3& p : m.vertices) vertices.push_back({p.x, p.y, p.z});
+    uv.get_ref<ordered_json::array_t&>().reserve(m.uv.size());
+    for (const Point2& p : m.uv) uv.push_back({p.x, p.y});
+    for (const InsertedVertex& v : m.inserted) {
+      ordered_json e;
+      e["edge"] = {v.a, v.b};
+      e["t"] = v.t;
+      inserted.push_back(std::move(e));
+    }
   }
+  out["mesh"] = {{"vertices", std::move(vertices)},
+                 {"faces", big ? triangles_json(m.faces) : ordered_json::array()}};
+  out["uv"] = std::move(uv);
   out["inserted"] = std::move(inserted);
 
   ordered_json d;
@@ -730,5 +630,7 @@ ordered_json parametrize_result_to_json(const lipmap::ParametrizeResult& r) {
   out["diagnostics"] = std::move(d);
   return out;
 }
+
+ordered_json parametrize_result_to_json(const lipmap::ParametrizeResult& r) { return detail::result_json(r, true); }
 
 }  // namespace lipmap::codec

@@ -85,6 +85,13 @@ struct ParametrizeRequest {
 };
 
 ParametrizeRequest parametrize_request_from_json(const nlohmann::json& body);
+// The same as parametrize_request_from_json(parse_json(text)) for a plain, well-formed parametrize body,
+// read without a DOM for its big arrays (mesh vertices and faces, boundary positions go straight into the
+// engine's arrays: a million-triangle body costs its arrays, not a tree of JSON values). nullopt when the
+// text is anything else (not JSON, a glTF envelope, a member of the wrong shape, an unknown or repeated
+// key): then parse the text the ordinary way, which names the error. May throw JsonError like
+// parametrize_request_from_json (e.g. an invalid option).
+std::optional<ParametrizeRequest> parametrize_request_from_text(std::string_view text);
 nlohmann::ordered_json parametrize_request_to_json(const ParametrizeRequest& request);
 
 // The "boundary" member alone, as a document of its own (`lipmap map --boundary FILE`):
@@ -113,6 +120,9 @@ nlohmann::ordered_json boundary_to_json(const RawBoundary& boundary);
 // Histogram: counts[i] faces with edges[i] <= K < edges[i + 1], the last bin open above. An infinite
 // distortion (a degenerate uv triangle, possible only with refine off) is written as null.
 nlohmann::ordered_json parametrize_result_to_json(const lipmap::ParametrizeResult& result);
+// Byte for byte dump(parametrize_result_to_json(result), pretty), written without a DOM for the big
+// arrays (mesh, uv, inserted): the numbers go from the engine's arrays straight into the text.
+std::string parametrize_result_to_text(const lipmap::ParametrizeResult& result, bool pretty = false);
 
 // ---- classify answer --------------------------------------------------------------------------------
 // {"verdict", "turning_number", "triangulation": [[i,j,k]...], "rotation_indices", "singular_vertices",

@@ -71,6 +71,12 @@ LoadedRequest parametrize_json(const RequestInput& input) {
   LoadedRequest out;
   out.form = RequestForm::parametrize_json;
   if (input.file.empty()) {
+    // A plain body is read straight into the engine's arrays; anything else (an envelope, an error) the
+    // ordinary way.
+    if (auto request = parametrize_request_from_text(input.body)) {
+      out.request = std::move(*request);
+      return out;
+    }
     const nlohmann::json body = parse_json(input.body);
     if (gltf::is_envelope(body)) return from_gltf(gltf::request_from_envelope(body, input.gltf_params), RequestForm::gltf_envelope);
     out.request = parametrize_request_from_json(body);
@@ -79,7 +85,9 @@ LoadedRequest parametrize_json(const RequestInput& input) {
   try {
     // With a boundary document the body's boundary is still parsed (a body must be a valid request), then
     // replaced.
-    out.request = parametrize_request_from_json(parse_json(read(input, input.file)));
+    const std::string text = read(input, input.file);
+    if (auto request = parametrize_request_from_text(text)) out.request = std::move(*request);
+    else out.request = parametrize_request_from_json(parse_json(text));
   } catch (const JsonError& e) {
     rethrow_in_file(e, input.file);
   }

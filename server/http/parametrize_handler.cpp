@@ -124,7 +124,7 @@ MapOutcome run_map(const codec::ParametrizeRequest& request, const CancelToken& 
                                              {Stage::verify, t.verify},       {Stage::quality, t.quality}};
   for (const auto& [stage, ms] : stages) metrics.observe_stage(lipmap::to_string(stage), ms / 1000.0);
   metrics.observe_inserted_vertices(static_cast<long long>(result->map.inserted.size()));
-  auto text = std::make_shared<const std::string>(codec::dump(codec::parametrize_result_to_json(*result)));
+  auto text = std::make_shared<const std::string>(codec::parametrize_result_to_text(*result));
   return {std::move(text), std::move(result)};
 }
 
