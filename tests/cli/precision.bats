@@ -76,10 +76,11 @@ same_originals() {
 }
 
 @test "JSON body in, JSON answer out: every original vertex keeps its position bit for bit" {
-  run "$LIPMAP" map "$T/body.json" -o "$T/out.json"
+  # Untangling off: the spiral then needs refinement, so inserted vertices follow the originals (with
+  # untangling on, this mesh maps with none inserted, and the point of the test would be lost).
+  run "$LIPMAP" map "$T/body.json" --no-untangle -o "$T/out.json"
   [ "$status" -eq 0 ] || { echo "$output" >&2; return 1; }
   same_originals "$T/body.json" "$T/out.json"
-  # The map was refined (the spiral needs it), so inserted vertices follow the originals.
   [ "$(node -e 'const a = JSON.parse(require("fs").readFileSync(process.argv[1])); console.log(a.inserted.length)' "$T/out.json")" -gt 0 ]
 }
 

@@ -27,12 +27,7 @@ namespace {
 using pipelinecases::LoadedMesh;
 using targetgen::Kind;
 
-int non_positive(const std::vector<Point2>& uv, const std::vector<Triangle>& faces) {
-  int n = 0;
-  for (const Triangle& t : faces)
-    n += testgen::exact::orient({uv[t[0]].x, uv[t[0]].y}, {uv[t[1]].x, uv[t[1]].y}, {uv[t[2]].x, uv[t[2]].y}) > 0 ? 0 : 1;
-  return n;
-}
+using pipelinecases::count_folded_by_checker;
 
 RawMesh bumpy_grid(int n) {
   RawMesh m;
@@ -73,7 +68,7 @@ TEST(OptimizeStage, EveryStepKeepsEveryTrianglePositiveAndLowersTheEnergy) {
             Point2 moved = {map.uv[v].x + jitter(rng) * map.uv[v].x, map.uv[v].y + jitter(rng) * map.uv[v].y};
             map.uv[v] = moved;
           }
-        if (non_positive(map.uv, map.faces) > 0) continue;  // the jitter folded something: not a valid start
+        if (count_folded_by_checker(map.uv, map.faces) > 0) continue;  // the jitter folded something: not a valid start
         const std::vector<Point2> start = map.uv;
         ParametrizeOptions o;
         o.optimize = energy;
@@ -85,7 +80,7 @@ TEST(OptimizeStage, EveryStepKeepsEveryTrianglePositiveAndLowersTheEnergy) {
         EXPECT_TRUE(r.ran) << where << ": " << r.outcome;
         EXPECT_GT(r.iterations, 0) << where;
         EXPECT_LE(r.energy_after, r.energy_before) << where;
-        EXPECT_EQ(non_positive(map.uv, map.faces), 0) << where;
+        EXPECT_EQ(count_folded_by_checker(map.uv, map.faces), 0) << where;
         for (int v : mesh.boundary_loop) EXPECT_TRUE(map.uv[v] == start[v]) << where << ": boundary vertex " << v << " moved";
         const double k_after = pipelinecases::mean_conformal_distortion(map.vertices, map.faces, map.uv);
         if (energy == OptimizeEnergy::mips) EXPECT_LT(k_after, k_before) << where;
@@ -100,7 +95,7 @@ TEST(OptimizeStage, NotRunOnAMapWithFlips) {
   map.faces = mesh.faces;
   for (const Point3& p : mesh.vertices) map.uv.push_back({p.x, p.y});
   map.uv[6] = {0.9, 0.9};  // an interior vertex thrown across: folds
-  ASSERT_GT(non_positive(map.uv, map.faces), 0);
+  ASSERT_GT(count_folded_by_checker(map.uv, map.faces), 0);
   const std::vector<Point2> start = map.uv;
   const Optimization r = optimize_map(mesh, mesh.boundary_loop, 1.0, map, ParametrizeOptions{});
   EXPECT_FALSE(r.ran);

@@ -29,6 +29,7 @@
 #include "engine/validate.h"
 #include "server/codec/json_codec.h"
 #include "tests/support/map_checker.h"
+#include "tests/support/pipeline_cases.h"
 #include "tests/support/target_generators.h"
 #include "tests/support/test_meshes.h"
 
@@ -55,33 +56,7 @@ RawMesh raw_of(const TestMesh& m) {
   return raw;
 }
 
-// The boundary loop from the faces alone: directed boundary edges (used once, never reversed), followed
-// from the lowest boundary vertex. Empty when the boundary is not a single simple cycle.
-std::vector<int> boundary_loop_of(const std::vector<Triangle>& faces, std::size_t nv) {
-  std::map<std::pair<int, int>, int> directed;
-  for (const Triangle& t : faces)
-    for (int c = 0; c < 3; ++c) ++directed[{t[c], t[(c + 1) % 3]}];
-  std::vector<int> next(nv, -1);
-  int start = -1;
-  std::size_t count = 0;
-  for (const auto& [e, n] : directed) {
-    if (directed.count({e.second, e.first})) continue;
-    if (next[e.first] != -1) return {};
-    next[e.first] = e.second;
-    ++count;
-    if (start < 0 || e.first < start) start = e.first;
-  }
-  std::vector<int> loop;
-  if (start < 0) return loop;
-  for (int v = start; loop.size() <= count;) {
-    loop.push_back(v);
-    v = next[v];
-    if (v == start) break;
-    if (v < 0) return {};
-  }
-  if (loop.size() != count) return {};
-  return loop;
-}
+using pipelinecases::boundary_loop_of;
 
 TestMesh load_mesh(const testmeshes::MeshEntry& entry) {
   const RawMesh raw = read_mesh_file(entry.path());

@@ -28,12 +28,7 @@ namespace {
 using pipelinecases::LoadedMesh;
 using targetgen::Kind;
 
-int non_positive(const std::vector<Point2>& uv, const std::vector<Triangle>& faces) {
-  int n = 0;
-  for (const Triangle& t : faces)
-    n += testgen::exact::orient({uv[t[0]].x, uv[t[0]].y}, {uv[t[1]].x, uv[t[1]].y}, {uv[t[2]].x, uv[t[2]].y}) > 0 ? 0 : 1;
-  return n;
-}
+using pipelinecases::count_folded_by_checker;
 
 // An n x n grid of the unit square, split along alternating diagonals, z a gentle bump.
 RawMesh grid(int n) {
@@ -74,7 +69,7 @@ TEST(UntangleStage, ScrambledGridsOntoASquareAreUntangled) {
       for (std::size_t v = 0; v < uv.size(); ++v)
         if (!on_loop[v]) uv[v] = {u(rng), u(rng)};
       const std::vector<int> rotation(polygon.vertices.size(), 0);
-      const int before = non_positive(uv, mesh.faces);
+      const int before = count_folded_by_checker(uv, mesh.faces);
       ASSERT_GT(before, 0) << n << " " << seed;
       const Untangling r = untangle(mesh, mesh.boundary_loop, polygon, rotation, uv);
       ++cases;
@@ -83,7 +78,7 @@ TEST(UntangleStage, ScrambledGridsOntoASquareAreUntangled) {
       if (!r.succeeded) continue;
       ++untangled;
       ASSERT_EQ(r.uv.size(), uv.size());
-      EXPECT_EQ(non_positive(r.uv, mesh.faces), 0) << n << " " << seed;
+      EXPECT_EQ(count_folded_by_checker(r.uv, mesh.faces), 0) << n << " " << seed;
       EXPECT_EQ(r.flipped_after, 0);
       for (std::size_t k = 0; k < mesh.boundary_loop.size(); ++k)
         EXPECT_TRUE(r.uv[mesh.boundary_loop[k]] == polygon.vertices[k]) << "boundary moved";
@@ -104,7 +99,7 @@ TEST(UntangleStage, FanOntoAPolygonWithEmptyKernelFails) {
   std::vector<Point2> uv(9);
   for (std::size_t k = 0; k < 8; ++k) uv[mesh.boundary_loop[k]] = polygon.vertices[k];
   uv[0] = {1.5, 0.5};
-  ASSERT_GT(non_positive(uv, mesh.faces), 0);
+  ASSERT_GT(count_folded_by_checker(uv, mesh.faces), 0);
   const Untangling r = untangle(mesh, mesh.boundary_loop, polygon, std::vector<int>(8, 0), uv);
   EXPECT_TRUE(r.attempted);
   EXPECT_FALSE(r.succeeded);

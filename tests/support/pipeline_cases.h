@@ -1,4 +1,4 @@
-// Shared by the untangle and optimize tests: a shared disk mesh loaded with its boundary loop computed here
+// Shared by the pipeline, untangle and optimize tests: a shared disk mesh loaded with its boundary loop computed here
 // from the faces alone (not by the engine), a run of the whole pipeline, and the independent checker
 // (map_checker.h) on its answer.
 #pragma once
@@ -16,6 +16,7 @@
 #include "tests/support/map_checker.h"
 #include "tests/support/target_generators.h"
 #include "tests/support/test_meshes.h"
+#include "tests/support/triangulation_checker.h"
 
 namespace lipmap::pipelinecases {
 
@@ -27,7 +28,16 @@ struct LoadedMesh {
   std::vector<int> loop;  // interior on the left, from the lowest boundary vertex; empty if not one cycle
 };
 
-// Directed boundary edges (used once, never reversed) followed from the lowest boundary vertex.
+// Faces whose uv triangle is not strictly counterclockwise, by the checkers' own exact orientation.
+inline int count_folded_by_checker(const std::vector<Point2>& uv, const std::vector<Triangle>& faces) {
+  int n = 0;
+  for (const Triangle& t : faces)
+    n += testgen::exact::orient({uv[t[0]].x, uv[t[0]].y}, {uv[t[1]].x, uv[t[1]].y}, {uv[t[2]].x, uv[t[2]].y}) > 0 ? 0 : 1;
+  return n;
+}
+
+// The boundary loop from the faces alone: directed boundary edges (used once, never reversed), followed
+// from the lowest boundary vertex. Empty when the boundary is not a single simple cycle.
 inline std::vector<int> boundary_loop_of(const std::vector<Triangle>& faces, std::size_t nv) {
   std::map<std::pair<int, int>, int> directed;
   for (const Triangle& t : faces)
@@ -43,10 +53,12 @@ inline std::vector<int> boundary_loop_of(const std::vector<Triangle>& faces, std
     if (start < 0 || e.first < start) start = e.first;
   }
   std::vector<int> loop;
-  for (int v = start; v >= 0 && loop.size() <= count;) {
+  if (start < 0) return loop;
+  for (int v = start; loop.size() <= count;) {
     loop.push_back(v);
     v = next[v];
     if (v == start) break;
+    if (v < 0) return {};
   }
   if (loop.size() != count) return {};
   return loop;
