@@ -201,8 +201,7 @@ normal="$(awk '{n++; t[n] = $2 * 1000; if ($1 == 200) ok++; else c[$1]++} END {
 read -r normal_ok normal_n normal_pct normal_other <<<"$normal"
 echo "slow clients: normal classify requests answered 200: $normal_ok/$normal_n = $normal_pct%" \
   "(median $(awk '{print $1, $2 * 1000}' "$work/slow_normal" | quantile 0.5 /dev/stdin 200) ms; others: ${normal_other:-none})"
-echo "slow clients: 408 answers $(curl -s "$admin/metrics" | awk '/^lipmap_http_requests_total/ && /status="408"/ {n += $NF} END {print n + 0}')," \
-  "connections refused $(curl -s "$admin/metrics" | awk '/^lipmap_rejected_total/ && /too_many_connections/ {n += $2} END {print n + 0}')"
+echo "slow clients: connections refused $(curl -s "$admin/metrics" | awk '/^lipmap_rejected_total/ && /too_many_connections/ {n += $NF} END {print n + 0}')"
 stop_server
 summary+=("summary: slow clients: every health probe answered: admin $(probe_ok "$work/slow_admin"), main $(probe_ok "$work/slow_main");\
  normal requests answered $normal_pct% (>= 90%: $(awk -v p="$normal_pct" 'BEGIN {print (p >= 90 ? "yes" : "no")}'))")
