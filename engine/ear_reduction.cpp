@@ -26,7 +26,9 @@ public:
     double cell = std::sqrt(std::max(w * h, 1e-300) / n);
     cell = std::max({cell, w / n, h / n});
     if (p.size() <= kSmall) cell = std::max(w, h) * 2;  // brute force is cheaper than any grid
-    if (cell > 0 && std::isfinite(cell)) {
+    // A subnormal cell has an infinite inverse: every offset would land in the last cell and each edge cover
+    // all kMaxCells^2 of them (2 GB and 20 s for a triangle of subnormal coordinates, found by the fuzzer).
+    if (cell > 0 && std::isfinite(cell) && std::isfinite(1 / cell)) {
       inv_ = 1 / cell;
       nx_ = 1 + cell_index(w * inv_, kMaxCells);
       ny_ = 1 + cell_index(h * inv_, kMaxCells);

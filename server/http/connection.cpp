@@ -55,6 +55,17 @@ public:
   bool timed_out() const { return timed_out_; }
   bool write_failed() const { return write_failed_; }
 
+  // Reads and drops `bytes` when they are all here already (buffered or in the socket); never waits.
+  bool discard_ready(std::size_t bytes) {
+    std::array<char, 4096> sink{};
+    while (bytes > 0 && is_readable()) {
+      const ssize_t n = read(sink.data(), std::min(bytes, sink.size()));
+      if (n <= 0) return false;
+      bytes -= static_cast<std::size_t>(n);
+    }
+    return bytes == 0;
+  }
+
   bool is_readable() const override { return begin_ < end_ || poll_for(POLLIN, 0) > 0; }
   bool is_writable() const override { return poll_for(POLLOUT, 0) > 0; }
 
@@ -293,6 +304,7 @@ std::unique_ptr<httplib::Server> make_connection_server(ConnectionLimits limits,
 void connection_header_received() {
   if (tl_stream) tl_stream->header_received();
 }
+bool connection_discard_ready(std::size_t bytes) { return tl_stream && tl_stream->discard_ready(bytes); }
 bool connection_timed_out() { return tl_stream && tl_stream->timed_out(); }
 bool connection_write_failed() { return tl_stream && tl_stream->write_failed(); }
 

@@ -38,6 +38,9 @@ std::unique_ptr<httplib::Server> make_connection_server(ConnectionLimits limits,
 // header_received(): the head is in, the deadline becomes the whole request's. timed_out(): a read failed
 // for the deadline (the answer is 408). write_failed(): the client went away before the answer was out.
 void connection_header_received();
+// Reads and drops the next `bytes` of the connection (a body that will not be read) if they have all arrived
+// already; never waits. False: not all here (the connection must then close).
+bool connection_discard_ready(std::size_t bytes);
 bool connection_timed_out();
 bool connection_write_failed();
 

@@ -21,16 +21,26 @@ std::size_t add(std::size_t a, std::size_t b) {
   return a > std::numeric_limits<std::size_t>::max() - b ? std::numeric_limits<std::size_t>::max() : a + b;
 }
 
-// Measured peak RSS growth per body byte (docs/hard-points.md "Memory"): a JSON body becomes a JSON DOM
-// (nlohmann: ~48 bytes per body byte on number arrays, measured) before the flat arrays; glTF and
-// multipart bodies are binary buffers copied a few times by tinygltf.
+// The constants are upper bounds on peak RSS growth (VmHWM after the request, reset before it, minus VmRSS
+// before) measured by bench/bench_memory.sh on this build (Release, 2 cores, glibc malloc); the figures are in
+// docs/hard-points.md "Memory per request".
+//
+// Parsing, per body byte (the body itself included: cpp-httplib's copy and the request loader's). A plain
+// parametrize body goes by SAX straight into the engine's arrays: 2.3 B/B on 17-digit numbers, 4.3 on "[1,2,3]"
+// (26 MB bodies). But any body the SAX reader gives up on (a wrong type anywhere) is parsed again into a DOM to
+// name the error, and classify bodies are always a DOM: 4.8 to 11 B/B on numbers, and 37 to 38 B/B (8 and 32
+// MB) on a body of empty objects ("{}," makes a map of its own), the most a DOM costs per byte. A client
+// chooses its body, so the bound is that worst case with a quarter more: 48. glTF and multipart bodies are
+// binary buffers copied a few times by tinygltf (not measured again).
 constexpr double kJsonBytesPerBodyByte = 48;
 constexpr double kBinaryBytesPerBodyByte = 6;
 
-// Measured peak RSS growth of `lipmap map` per target triangle (source faces * target_density), over the
-// whole pipeline (target mesh, two harmonic maps with their factorizations, composition, refinement,
-// verification, the answer's JSON): see docs/hard-points.md "Memory".
-constexpr double kBytesPerTargetTriangle = 6000;
+// The whole pipeline per target triangle (source faces * target_density: target mesh, two harmonic maps with
+// their factorizations, composition, refinement, verification, the answer's JSON), and per source vertex.
+// Measured on grids mapped onto a spiral, parse included: 1,196 B per triangle at 10k triangles (fixed costs
+// weigh most there), 866 at 51k, 824 at 124k. 3,000 leaves about 2.5x for meshes that refine more than these
+// (inserted vertices grow the refined mesh, not the target mesh).
+constexpr double kBytesPerTargetTriangle = 3000;
 constexpr double kBytesPerVertex = 600;
 
 }  // namespace
@@ -43,6 +53,8 @@ std::size_t parse_cost(std::size_t body_bytes, const std::string& content_type) 
 std::size_t classify_cost(std::size_t n) {
   // engine/shor_van_wyk.cpp: two m x m bit matrices and, when turns can be non-zero, one 8-byte mask per
   // entry of the upper triangle; App. C's ear reduction usually shrinks m, but not on overlapping polygons.
+  // Measured (bench/bench_memory.sh, double loop, no prescribed turns): 3.7 MB at 4,000 vertices = 0.24 n^2,
+  // the bit matrices' 0.25 n^2; the masks' 4 n^2 are the layout's, not measured.
   const double m = static_cast<double>(n);
   return mul(1, m * m / 4 + m * (m - 1) / 2 * 8 + m * 64);
 }

@@ -2,7 +2,7 @@
 // known before the work starts, and a request whose estimate exceeds --memory-budget is refused (413 before
 // its body is read when the body alone would parse past it, else 422 memory_budget_exceeded) instead of
 // growing the process until the kernel kills it. The estimates are upper bounds calibrated on this build
-// (bench/bench_overload.sh and docs/hard-points.md give the figures); they are deliberately simple.
+// (bench/bench_memory.sh measures them; docs/hard-points.md keeps the figures); they are deliberately simple.
 #pragma once
 
 #include <cstddef>

@@ -173,7 +173,12 @@ bool pre_routing(Service& service, const httplib::Request& req, httplib::Respons
     }
     if (service.pool.full()) {
       send(res, service.submit_refused(WorkerPool::Submit::queue_full));
-      if (length > 0) close_after_answer(res);
+      // A small body that has already arrived is dropped unread and the connection stays open: closing after
+      // every refusal made each retry pay for a new connection. A larger body, or one still on its way, is
+      // never waited for: the connection closes.
+      constexpr std::uint64_t kDropLimit = 64 * 1024;
+      if (length > 0 && !(length <= kDropLimit && connection_discard_ready(static_cast<std::size_t>(length))))
+        close_after_answer(res);
       return true;
     }
     const std::size_t parse_bytes = parse_cost(length, req.get_header_value("Content-Type"));

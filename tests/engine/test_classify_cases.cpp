@@ -4,6 +4,10 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <string>
 
 #include "engine/classify.h"
 
@@ -39,6 +43,48 @@ TEST(ClassifyCases, CoordinatesNearTheEndsOfTheDoubleRange) {
       ngon.push_back({s * std::cos(2 * M_PI * k / 40), s * std::sin(2 * M_PI * k / 40)});
     if (s < 1e-300) continue;  // a subnormal scale rounds the 40-gon's vertices onto each other
     EXPECT_EQ(classify(polygon(ngon)).verdict, Verdict::simple) << s;
+  }
+}
+
+// Peak resident memory of this process in kB since the last reset (Linux: VmHWM, reset by writing 5 to
+// clear_refs); -1 where that is not available.
+long peak_rss_kb(bool reset) {
+  if (reset) {
+    std::ofstream clear("/proc/self/clear_refs");
+    if (!(clear << "5" << std::flush)) return -1;
+  }
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line))
+    if (line.rfind("VmHWM:", 0) == 0) return std::stol(line.substr(6));
+  return -1;
+}
+
+double from_bits(std::uint64_t bits) {
+  double d;
+  std::memcpy(&d, &bits, sizeof d);
+  return d;
+}
+
+// Subnormal coordinates: the ear clipper's grid cell is then subnormal and its inverse infinite, which put every
+// edge in all 4096 x 4096 cells: a triangle took 2 GB and 20 s (found by the classify fuzzer; its input is the
+// first polygon here). Each polygon must classify within a few MB, with the verdict of the same polygon scaled
+// by 2^1000 (exact: a power of two, no rounding), where the grid is an ordinary one.
+TEST(ClassifyCases, SubnormalCoordinatesGetAnOrdinaryGrid) {
+  const std::vector<std::vector<Point2>> polygons = {
+      {{0, from_bits(0x3ff00000)}, {0, from_bits(0x01010000)}, {from_bits(0x3ff0), 0}},
+      {{0, 0}, {4.9e-324, 0}, {0, 4.9e-324}},
+      {{0, 0}, {3e-320, 0}, {3e-320, 2e-320}, {0, 2e-320}},
+      {{1e-310, 1e-310}, {0, 2e-310}, {-1e-310, 1e-310}, {0, 0}},
+  };
+  for (const auto& p : polygons) {
+    const long before = peak_rss_kb(true);
+    const auto c = classify(polygon(p));
+    const long peak = peak_rss_kb(false);
+    if (before >= 0 && peak >= 0) EXPECT_LT(peak - before, 64 * 1024) << "kB of peak RSS growth";
+    std::vector<Point2> scaled;
+    for (const Point2& q : p) scaled.push_back({std::ldexp(q.x, 1000), std::ldexp(q.y, 1000)});
+    EXPECT_EQ(c.verdict, classify(polygon(scaled)).verdict);
   }
 }
 

@@ -11,7 +11,7 @@ setup_file() { require_tools; }
 teardown() {
   check_recorded_answers
   local n
-  for n in MEM CANCEL; do
+  for n in MEM CANCEL HOST; do
     local pid_var="${n}_PID"
     if [ -n "${!pid_var:-}" ] && kill -0 "${!pid_var}" 2>/dev/null; then stop_server "$n" || true; fi
   done
@@ -77,4 +77,69 @@ kb() { awk -v k="$2" '$1 == k":" {print $2}' "/proc/$1/status"; }
   expect 200
   t1=$(date +%s%N)
   [ $(((t1 - t0) / 1000000)) -le 3000 ] || { echo "worker busy for $(((t1 - t0) / 1000000)) ms" >&2; return 1; }
+}
+
+@test "hostile bodies within the default limits: each gives the worker back within its deadline + 1 s and grows the RSS by less than 200 MB" {
+  # One worker, so that the quick classify sent after each body needs the worker that body had; every size
+  # limit at its default. The deadline is 2 s instead of 300 s to keep the test short: the bound (deadline +
+  # 1 s) is the same property. Time is measured from the hostile body's send to the quick answer, with 1 s
+  # more for curl and loopback. Peak RSS: VmHWM, reset before each body (clear_refs 5), against VmRSS then.
+  start_server HOST --workers 1 --deadline 2
+  call POST "$HOST_URL/v1/parametrize" --json "@$(make_body grid8 grid 8 spiral)"
+  expect 200
+  local d="$BATS_TEST_TMPDIR" h="$HELPERS/make_request.js"
+  node "$h" hostile dupfaces 1000 >"$d/dup1k.json"
+  node "$h" hostile dupfaces 80000 >"$d/dup80k.json"
+  head -c 500000 /dev/zero | tr '\0' '[' >"$d/deep_arrays.json"
+  { for i in $(seq 50000); do printf '{"mesh":'; done; } >"$d/deep_objects.json"
+  node "$h" hostile gltfcount 33554432 >"$d/count25.gltf"
+  node "$h" hostile gltfcount 2147483647 >"$d/count31.gltf"
+  node "$h" hostile density 1000 >"$d/density1000.json"
+  node "$h" hostile density 50 >"$d/density50.json"
+  node "$h" hostile scale 155 >"$d/scale155.json"
+  node "$h" hostile scale -150 >"$d/scale-150.json"
+  node "$h" polygon loop2 4000 >"$d/loop4000.json"
+  node "$h" polygon coil 4000 >"$d/coil4000.json"
+  node "$h" polygon loop2 4001 >"$d/loop4001.json"
+  node "$h" grid 100 spiral >"$d/grid100.json"
+  # NAME ROUTE CONTENT-TYPE: every body below is at most 1 MB
+  local cases=(
+    "dup1k.json /v1/parametrize application/json"
+    "dup80k.json /v1/parametrize application/json"
+    "dup80k.json /v1/jobs application/json"
+    "deep_arrays.json /v1/parametrize application/json"
+    "deep_objects.json /v1/polygons/classify application/json"
+    "count25.gltf /v1/parametrize?boundary=texcoord:0 model/gltf+json"
+    "count31.gltf /v1/parametrize?boundary=texcoord:0 model/gltf+json"
+    "density1000.json /v1/parametrize application/json"
+    "density50.json /v1/jobs application/json"
+    "scale155.json /v1/parametrize application/json"
+    "scale-150.json /v1/parametrize application/json"
+    "loop4000.json /v1/polygons/classify application/json"
+    "coil4000.json /v1/polygons/classify application/json"
+    "loop4001.json /v1/polygons/classify application/json"
+    "grid100.json /v1/parametrize application/json"
+    "grid100.json /v1/jobs application/json"
+  )
+  local c name route type before peak t0 t1 ms reset=no
+  [ -w "/proc/$HOST_PID/clear_refs" ] && reset=yes
+  for c in "${cases[@]}"; do
+    read -r name route type <<<"$c"
+    [ "$(stat -c %s "$d/$name")" -le 1000000 ]
+    [ "$reset" = yes ] && echo 5 >"/proc/$HOST_PID/clear_refs"
+    before="$(kb "$HOST_PID" VmRSS)"
+    t0=$(date +%s%N)
+    call POST "$HOST_URL$route" -H "Content-Type: $type" --data-binary "@$d/$name"
+    # an answer, a refusal naming the problem, or the deadline: never 500 or 503
+    [[ "$code" == 200 || "$code" == 202 || "$code" == 4* || "$code" == 504 ]] || { echo "$name: HTTP $code $body" >&2; return 1; }
+    local got="$code $(jq -r '.code // .state // empty' "$answer" 2>/dev/null | head -1)"
+    call POST "$HOST_URL/v1/polygons/classify" --max-time 10 --json '{"polygon": [[0,0],[1,0],[0,1]]}'
+    expect 200
+    t1=$(date +%s%N)
+    ms=$(((t1 - t0) / 1000000))
+    peak="$(kb "$HOST_PID" VmHWM)"
+    echo "# $name $route: $got; worker free after $ms ms; RSS $((before / 1024)) MB, peak $((peak / 1024)) MB (reset: $reset)" >&3
+    [ "$ms" -le 4000 ] || { echo "$name: the worker was busy for $ms ms" >&2; return 1; }
+    [ $((peak - before)) -le $((200 * 1024)) ] || { echo "$name: RSS grew by $(((peak - before) / 1024)) MB" >&2; return 1; }
+  done
 }

@@ -20,6 +20,13 @@
 //   node make_request.js polygon BOUNDARY N
 //       A classify body {"polygon": ...} with the same boundary shapes, N vertices; also coil (a strip wound
 //       3 turns over itself) and loop2 (a double loop around two hubs: the costly case of the classify table).
+//   node make_request.js hostile KIND N
+//       Small bodies that once cost the service far more than their size (tests/http/budget.bats):
+//         dupfaces  a 5-vertex pyramid with N extra copies of one face (a quadratic duplicate check took minutes)
+//         density   a 20 x 20 grid on the spiral asking for N times its triangles (options.target_density)
+//         scale     the 8 x 8 grid's spiral boundary scaled by 10^N (N may be negative)
+//         gltfcount a glTF document (model/gltf+json) whose POSITION and TEXCOORD_0 accessors have count N and
+//                   no bufferView (zero-filled by the reader: N vertices from a few hundred bytes)
 // The body is written to standard output as one line of JSON.
 "use strict";
 
@@ -190,6 +197,35 @@ function invalidMesh(kind) {
   }
 }
 
+function hostile(kind, n) {
+  switch (kind) {
+    case "dupfaces": {
+      const faces = [[0, 1, 4], [1, 2, 4], [2, 3, 4], [3, 0, 4]];
+      for (let k = 0; k < n; k++) faces.push([0, 1, 4]);
+      return { mesh: { vertices: [[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0.5, 0.5, 0.25]], faces },
+               boundary: { positions: [[0, 0], [2, 0], [2, 2], [0, 2]] } };
+    }
+    case "density":
+    case "scale": {
+      const mesh = grid(kind === "density" ? 20 : 8, "bump");
+      const positions = positionsFor("spiral", boundaryLoop(mesh.faces), mesh.vertices);
+      if (kind === "density") return { mesh, boundary: { positions }, options: { target_density: n } };
+      const f = Math.pow(10, n);
+      return { mesh, boundary: { positions: positions.map(([x, y]) => [x * f, y * f]) } };
+    }
+    case "gltfcount":
+      return {
+        asset: { version: "2.0" },
+        scenes: [{ nodes: [0] }], nodes: [{ mesh: 0 }],
+        meshes: [{ primitives: [{ attributes: { POSITION: 0, TEXCOORD_0: 1 }, mode: 4 }] }],
+        accessors: [{ componentType: 5126, count: n, type: "VEC3", min: [0, 0, 0], max: [1, 1, 1] },
+                    { componentType: 5126, count: n, type: "VEC2" }],
+      };
+    default:
+      throw new Error("unknown hostile body " + kind);
+  }
+}
+
 function readMesh(file) {
   const text = fs.readFileSync(file, "utf8");
   const vertices = [], faces = [];
@@ -233,11 +269,14 @@ function main(argv) {
     body = { mesh, boundary: { positions: positionsFor(rest[1] || "circle", loop, mesh.vertices) } };
   } else if (what === "invalid") {
     body = { mesh: invalidMesh(rest[0]), boundary: { positions: [[0, 0], [1, 0], [1, 1], [0, 1]] } };
+  } else if (what === "hostile") {
+    process.stdout.write(JSON.stringify(hostile(rest[0], Number(rest[1]))) + "\n");
+    return;
   } else if (what === "polygon") {
     process.stdout.write(JSON.stringify({ polygon: polygon(rest[0], parseInt(rest[1] || "16", 10)) }) + "\n");
     return;
   } else {
-    console.error("usage: make_request.js grid N BOUNDARY | mesh FILE [circle] | invalid KIND | polygon BOUNDARY N");
+    console.error("usage: make_request.js grid N BOUNDARY | mesh FILE [circle] | invalid KIND | polygon BOUNDARY N | hostile KIND N");
     process.exit(2);
   }
   const options = {};
