@@ -15,10 +15,12 @@
 #    replicas (each pair of settings on its own Redis database, so that an idle replica takes nothing from the
 #    other's queue). BENCH_ROUNDS rounds, each giving BENCH_JOBS jobs of the same size at once to each setting
 #    in turn (order rotated each round); medians over the rounds, client and server side.
+# 0. The machine's own ceiling, with no HTTP, Redis or nginx: BENCH_CEILING runs of the same job by the CLI
+#    (`lipmap map`), one after the other and then as two streams side by side; 2 replicas cannot gain more.
 # Everything runs on 127.0.0.1; the machine's core count bounds what 2 replicas can gain: it is printed.
 #
 # Environment: LIPMAP_BUILD_DIR (build), BENCH_RUNS (40 pairs), BENCH_GRID (72: 10082 triangles),
-# BENCH_JOBS (24), BENCH_ROUNDS (5).
+# BENCH_JOBS (24), BENCH_ROUNDS (5), BENCH_CEILING (8), BENCH_PARTS (the parts to run: "0 1 2").
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 build_dir="${LIPMAP_BUILD_DIR:-build}"
@@ -26,6 +28,8 @@ runs="${BENCH_RUNS:-40}"
 grid="${BENCH_GRID:-72}"
 njobs="${BENCH_JOBS:-24}"
 rounds="${BENCH_ROUNDS:-5}"
+ceiling="${BENCH_CEILING:-8}"
+parts=" ${BENCH_PARTS:-0 1 2} "
 lipmap="$build_dir/server/lipmap"
 [[ -x "$lipmap" ]] || { echo "bench_cluster: build $lipmap first (cmake --build $build_dir --target lipmap)" >&2; exit 1; }
 nginx="$(command -v nginx || echo /usr/sbin/nginx)"
@@ -95,12 +99,28 @@ wait_ready "http://127.0.0.1:$nginx_two"
 drv() { node bench/cluster_driver.js "$@"; }
 
 echo "machine: $(nproc) cores; lipmap $("$lipmap" --version 2>/dev/null | head -n 1); every process 1 worker"
+if [[ "$parts" == *" 0 "* ]]; then
+  echo "== 0. the machine's ceiling: $ceiling CLI runs of the job, one after the other, then 2 streams side by side"
+  load
+  stream() { local i; for i in $(seq "$1"); do "$lipmap" map "$work/job.json" -o "$work/cli$2.json" >/dev/null; done; }
+  stream 1 a  # warm-up
+  t0=$(date +%s.%N); stream "$ceiling" a; t1=$(date +%s.%N)
+  stream $((ceiling / 2)) a & p1=$!; stream $((ceiling / 2)) b & p2=$!; wait "$p1" "$p2"; t2=$(date +%s.%N)
+  awk -v t0="$t0" -v t1="$t1" -v t2="$t2" -v n="$ceiling" 'BEGIN { s = t1 - t0; p = t2 - t1
+    printf "SUMMARY ceiling: 1 stream %.2f runs/s, 2 streams %.2f runs/s: %.2fx\n", n / s, n / p, s / p }'
+  load
+fi
+[[ "$parts" == *" 1 "* ]] && {
 echo "== 1. what Redis adds to a job of $faces triangles: $runs interleaved pairs, one job at a time"
 load
 drv ab "$work/job.json" 2 in-memory="http://127.0.0.1:$mem" redis="http://127.0.0.1:$one" >/dev/null  # warm-up
 drv ab "$work/job.json" "$runs" in-memory="http://127.0.0.1:$mem" redis="http://127.0.0.1:$one"
 load
+}
+[[ "$parts" == *" 2 "* ]] && {
 echo "== 2. jobs per second behind nginx: $rounds rounds of $njobs jobs of $faces triangles submitted at once"
 drv throughput "$work/job.json" "$njobs" "$rounds" in-memory-1="http://127.0.0.1:$nginx_mem" \
   redis-1-replica="http://127.0.0.1:$nginx_one" redis-2-replicas="http://127.0.0.1:$nginx_two"
 load
+}
+exit 0
