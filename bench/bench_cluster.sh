@@ -1,92 +1,126 @@
 #!/usr/bin/env bash
-# What the shared job queue (Redis, --queue-url) costs and what replicas bring (docs/cluster.md).
+# What the shared job queue (Redis, --queue-url) costs and what replicas bring (docs/cluster.md). No
+# assertions: it prints medians, ratios and SUMMARY lines (with the machine's load before and after).
 #
-#   bash bench/bench_cluster.sh
+#   bash bench/bench_cluster.sh        (under the build lock on a shared machine: nothing else running)
 #
-# 1. Per job: the same 10k-triangle job (BENCH_GRID x BENCH_GRID grid, 2 (n-1)^2 triangles, on an annulus
-#    sector wound 1.25 turns) through POST /v1/jobs, one at a time, polled every 2 ms, result fetched: against
-#    one `lipmap serve --workers 1` with the in-memory queue, and against one with --queue-url (a local Redis).
-#    Median client time (submit to result in hand) and server time (created_at to finished_at) of BENCH_RUNS
-#    jobs each after a warm-up; the difference is what Redis adds.
-# 2. Throughput: BENCH_JOBS jobs of a smaller mesh (BENCH_SMALL_GRID) submitted at once: the in-memory queue
-#    (one process, 1 worker), and the shared queue with 1 and with 2 replicas of 1 worker each, requests
-#    spread over the replicas. Jobs per second from the first submission to the last result.
-# Everything runs on 127.0.0.1. The machine's core count bounds what 2 replicas can gain: it is printed.
+# Every replica has one worker (`--workers 1`): a replica is one core's worth, as on Kubernetes with a CPU
+# limit of 1 (docker/k8s), and the engine runs single-threaded (OpenBLAS is kept to one thread).
+# 1. What Redis adds to a job: the same 10k-triangle job (BENCH_GRID x BENCH_GRID grid, 2 (n-1)^2 triangles,
+#    an annulus sector wound 1.25 turns) on one process with the in-memory queue and on one replica with the
+#    shared queue, one job at a time, the two interleaved (A B, B A, ...) over BENCH_RUNS pairs so that the
+#    machine's drifting load falls on both alike. Medians of wall time (submit to result in hand, polled every
+#    2 ms) and server time (created_at to finished_at), and the median of the paired differences.
+# 2. Jobs per second behind nginx: the in-memory queue (1 process), the shared queue with 1 replica and with 2
+#    replicas (each pair of settings on its own Redis database, so that an idle replica takes nothing from the
+#    other's queue). BENCH_ROUNDS rounds, each giving BENCH_JOBS jobs of the same size at once to each setting
+#    in turn (order rotated each round); medians over the rounds, client and server side.
+# 0. The machine's own ceiling, with no HTTP, Redis or nginx: BENCH_CEILING runs of the same job by the CLI
+#    (`lipmap map`), one after the other and then as two streams side by side; 2 replicas cannot gain more.
+# Everything runs on 127.0.0.1; the machine's core count bounds what 2 replicas can gain: it is printed.
 #
-# Environment: LIPMAP_BUILD_DIR (build), BENCH_RUNS (15), BENCH_GRID (72: 10082 triangles), BENCH_SMALL_GRID
-# (30), BENCH_JOBS (60).
+# Environment: LIPMAP_BUILD_DIR (build), BENCH_RUNS (40 pairs), BENCH_GRID (72: 10082 triangles),
+# BENCH_JOBS (24), BENCH_ROUNDS (5), BENCH_CEILING (8), BENCH_PARTS (the parts to run: "0 1 2").
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 build_dir="${LIPMAP_BUILD_DIR:-build}"
-runs="${BENCH_RUNS:-15}"
+runs="${BENCH_RUNS:-40}"
 grid="${BENCH_GRID:-72}"
-small="${BENCH_SMALL_GRID:-30}"
-njobs="${BENCH_JOBS:-60}"
+njobs="${BENCH_JOBS:-24}"
+rounds="${BENCH_ROUNDS:-5}"
+ceiling="${BENCH_CEILING:-8}"
+parts=" ${BENCH_PARTS:-0 1 2} "
 lipmap="$build_dir/server/lipmap"
 [[ -x "$lipmap" ]] || { echo "bench_cluster: build $lipmap first (cmake --build $build_dir --target lipmap)" >&2; exit 1; }
-command -v redis-server >/dev/null && command -v node >/dev/null ||
-  { echo "bench_cluster: needs redis-server and node (scripts/setup.sh --with-tests)" >&2; exit 1; }
+nginx="$(command -v nginx || echo /usr/sbin/nginx)"
+command -v redis-server >/dev/null && command -v node >/dev/null && [[ -x "$nginx" ]] ||
+  { echo "bench_cluster: needs redis-server, nginx and node (scripts/setup.sh --with-tests)" >&2; exit 1; }
 
 work="$(mktemp -d)"
-pids=()  # the replicas running now
-redis_pid=""
-stop_all() {
+pids=()
+cleanup() {
   local p
   for p in "${pids[@]}"; do kill -TERM "$p" 2>/dev/null || true; done
   for p in "${pids[@]}"; do wait "$p" 2>/dev/null || true; done
-  pids=()
-}
-cleanup() {
-  stop_all
-  [[ -z "$redis_pid" ]] || { kill -TERM "$redis_pid" 2>/dev/null; wait "$redis_pid" 2>/dev/null || true; }
   rm -rf "$work"
 }
 trap cleanup EXIT
 free_port() { node -e 'const s=require("net").createServer();s.listen(0,"127.0.0.1",()=>{console.log(s.address().port);s.close()})'; }
 wait_ready() { for _ in $(seq 100); do curl -sf "$1/readyz" >/dev/null && return 0; sleep 0.1; done; echo "no answer from $1" >&2; exit 1; }
-serve() {  # serve [options]: starts a replica; its URL is in $url (not a subshell: the pid is kept)
-  local port; port="$(free_port)"
+serve() {  # serve VAR [options]: starts a one-worker process; its port in $VAR
+  local var="$1" port; shift
+  port="$(free_port)"
   "$lipmap" serve --host 127.0.0.1 --port "$port" --workers 1 --queue 256 --log-level warn "$@" 2>>"$work/serve.log" &
   pids+=($!)
-  url="http://127.0.0.1:$port"
-  wait_ready "$url"
+  wait_ready "http://127.0.0.1:$port"
+  printf -v "$var" '%s' "$port"
 }
+load() { echo "load: $(uptime | sed 's/.*load average/load average/')"; }
 
-node tests/http/helpers/make_request.js grid "$grid" spiral >"$work/big.json"
-node tests/http/helpers/make_request.js grid "$small" spiral >"$work/small.json"
-faces="$(jq '.mesh.faces | length' "$work/big.json")"
+node tests/http/helpers/make_request.js grid "$grid" spiral >"$work/job.json"
+faces="$(jq '.mesh.faces | length' "$work/job.json")"
 redis_port="$(free_port)"
 redis-server --port "$redis_port" --bind 127.0.0.1 --save '' --appendonly no --daemonize no --loglevel warning \
   >"$work/redis.log" 2>&1 &
-redis_pid=$!
+pids+=($!)
 for _ in $(seq 50); do [[ "$(redis-cli -p "$redis_port" ping 2>/dev/null)" == PONG ]] && break; sleep 0.1; done
-queue="redis://127.0.0.1:$redis_port"
+
+serve mem
+serve one --queue-url "redis://127.0.0.1:$redis_port/0"
+serve two_a --queue-url "redis://127.0.0.1:$redis_port/1"
+serve two_b --queue-url "redis://127.0.0.1:$redis_port/1"
+nginx_mem="$(free_port)" nginx_one="$(free_port)" nginx_two="$(free_port)"
+mkdir -p "$work/nginx"
+cat >"$work/nginx/nginx.conf" <<CONF
+daemon off;
+$([[ "$(id -u)" == 0 ]] && echo "user root root;")
+worker_processes 1;
+pid $work/nginx/nginx.pid;
+error_log $work/nginx/error.log warn;
+events { worker_connections 1024; }
+http {
+  access_log off;
+  client_body_temp_path $work/nginx/body;
+  proxy_temp_path $work/nginx/proxy;
+  client_max_body_size 256m;
+  proxy_http_version 1.1;
+  proxy_set_header Connection "";
+  upstream mem { server 127.0.0.1:$mem; keepalive 16; }
+  upstream one { server 127.0.0.1:$one; keepalive 16; }
+  upstream two { server 127.0.0.1:$two_a; server 127.0.0.1:$two_b; keepalive 16; }
+  server { listen 127.0.0.1:$nginx_mem; location / { proxy_pass http://mem; } }
+  server { listen 127.0.0.1:$nginx_one; location / { proxy_pass http://one; } }
+  server { listen 127.0.0.1:$nginx_two; location / { proxy_pass http://two; } }
+}
+CONF
+"$nginx" -p "$work/nginx" -c "$work/nginx/nginx.conf" -e "$work/nginx/error.log" &
+pids+=($!)
+wait_ready "http://127.0.0.1:$nginx_two"
 drv() { node bench/cluster_driver.js "$@"; }
 
-echo "machine: $(nproc) cores; lipmap $("$lipmap" --version 2>/dev/null | head -n 1)"
-echo "== 1. per job, $faces triangles, median of $runs (one at a time, 1 worker)"
-# Started one after the other (not side by side) so that the two never share the cores.
-serve; drv latency "$url" "$work/big.json" 2 >/dev/null
-memory="$(drv latency "$url" "$work/big.json" "$runs")"; stop_all
-serve --queue-url "$queue"; drv latency "$url" "$work/big.json" 2 >/dev/null
-shared="$(drv latency "$url" "$work/big.json" "$runs")"; stop_all
-echo "in-memory queue:  $memory"
-echo "shared (Redis):   $shared"
-m="$(awk '{print $2}' <<<"$memory")" s="$(awk '{print $2}' <<<"$shared")"
-awk -v m="$m" -v s="$s" 'BEGIN { printf "Redis adds %.1f ms per job (%.1f%%, client time)\n", s - m, 100 * (s - m) / m }'
-
-echo "== 2. throughput: $njobs jobs of $(jq '.mesh.faces | length' "$work/small.json") triangles submitted at once"
-serve; drv throughput "$url" "$work/small.json" 4 >/dev/null
-mem1="$(drv throughput "$url" "$work/small.json" "$njobs")"; stop_all
-redis-cli -p "$redis_port" flushall >/dev/null
-serve --queue-url "$queue"; drv throughput "$url" "$work/small.json" 4 >/dev/null
-one="$(drv throughput "$url" "$work/small.json" "$njobs")"; stop_all
-redis-cli -p "$redis_port" flushall >/dev/null
-serve --queue-url "$queue"; u1="$url"; serve --queue-url "$queue"; u2="$url"
-drv throughput "$u1,$u2" "$work/small.json" 4 >/dev/null
-two="$(drv throughput "$u1,$u2" "$work/small.json" "$njobs")"; stop_all
-echo "in-memory, 1 process x 1 worker:  $mem1"
-echo "shared, 1 replica x 1 worker:     $one"
-echo "shared, 2 replicas x 1 worker:    $two"
-awk -v a="$(awk '{print $2}' <<<"$one")" -v b="$(awk '{print $2}' <<<"$two")" -v m="$(awk '{print $2}' <<<"$mem1")" \
-  'BEGIN { printf "2 replicas / 1 replica: %.2fx; 1 replica / in-memory: %.2fx\n", b / a, a / m }'
+echo "machine: $(nproc) cores; lipmap $("$lipmap" --version 2>/dev/null | head -n 1); every process 1 worker"
+if [[ "$parts" == *" 0 "* ]]; then
+  echo "== 0. the machine's ceiling: $ceiling CLI runs of the job, one after the other, then 2 streams side by side"
+  load
+  stream() { local i; for i in $(seq "$1"); do "$lipmap" map "$work/job.json" -o "$work/cli$2.json" >/dev/null; done; }
+  stream 1 a  # warm-up
+  t0=$(date +%s.%N); stream "$ceiling" a; t1=$(date +%s.%N)
+  stream $((ceiling / 2)) a & p1=$!; stream $((ceiling / 2)) b & p2=$!; wait "$p1" "$p2"; t2=$(date +%s.%N)
+  awk -v t0="$t0" -v t1="$t1" -v t2="$t2" -v n="$ceiling" 'BEGIN { s = t1 - t0; p = t2 - t1
+    printf "SUMMARY ceiling: 1 stream %.2f runs/s, 2 streams %.2f runs/s: %.2fx\n", n / s, n / p, s / p }'
+  load
+fi
+[[ "$parts" == *" 1 "* ]] && {
+echo "== 1. what Redis adds to a job of $faces triangles: $runs interleaved pairs, one job at a time"
+load
+drv ab "$work/job.json" 2 in-memory="http://127.0.0.1:$mem" redis="http://127.0.0.1:$one" >/dev/null  # warm-up
+drv ab "$work/job.json" "$runs" in-memory="http://127.0.0.1:$mem" redis="http://127.0.0.1:$one"
+load
+}
+[[ "$parts" == *" 2 "* ]] && {
+echo "== 2. jobs per second behind nginx: $rounds rounds of $njobs jobs of $faces triangles submitted at once"
+drv throughput "$work/job.json" "$njobs" "$rounds" in-memory-1="http://127.0.0.1:$nginx_mem" \
+  redis-1-replica="http://127.0.0.1:$nginx_one" redis-2-replicas="http://127.0.0.1:$nginx_two"
+load
+}
+exit 0

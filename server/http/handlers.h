@@ -70,11 +70,4 @@ MapOutcome run_map(const codec::ParametrizeRequest& request, const CancelToken& 
 // a JSON request.
 Answer gltf_answer(const std::shared_ptr<const gltf::Asset>& asset, const ParametrizeResult& result, gltf::Format f);
 
-// ---- jobs (jobs_handler.cpp), also used by the shutdown ----
-
-// Records a job that reached a final state (metrics, log line, the store's retention).
-void finish_job(Service& service, const std::shared_ptr<Job>& job);
-// Cancels every unfinished job; those still queued end at once (503 shutting_down).
-void cancel_unfinished_jobs(Service& service, CancelReason reason);
-
 }  // namespace lipmap::server

@@ -131,13 +131,13 @@ struct HttpServer::Impl {
     while (!housekeeping_stop) {
       housekeeping_cv.wait_for(lock, std::chrono::seconds(1));
       lock.unlock();
-      service.store.sweep();
+      service.jobs->sweep();
       lock.lock();
     }
   }
 
   void cancel_everything(CancelReason reason) {
-    cancel_unfinished_jobs(service, reason);
+    service.jobs->cancel_unfinished(reason);
     service.cancel_sync_work(reason);
   }
 };
@@ -243,7 +243,7 @@ bool HttpServer::shutdown() {
   s.http.stop();
   service.draining = true;
   // 2. Asynchronous jobs: once the listener is closed nobody can fetch their results, so they end now.
-  cancel_unfinished_jobs(service, CancelReason::shutdown);
+  service.jobs->cancel_unfinished(CancelReason::shutdown);
   // 3. Synchronous requests in flight: their clients are waiting; they get the grace period.
   service.pool.close();
   const auto grace_end =

@@ -279,6 +279,15 @@ std::vector<std::shared_ptr<Job>> JobStore::unfinished() const {
   return out;
 }
 
+codec::RequestInput StoredRequest::input() const {
+  codec::RequestInput in;
+  in.body = body;
+  in.media_type = media_type;
+  in.parts = parts;
+  in.gltf_params = params;
+  return in;
+}
+
 std::string new_job_id() {
   static std::mutex mutex;
   static std::mt19937_64 generator = [] {

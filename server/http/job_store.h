@@ -1,6 +1,10 @@
 // Asynchronous jobs of `lipmap serve` (POST /v1/jobs): state, progress by engine stage, cancellation, and
 // the finished results, kept for a configurable time and count and then dropped. A dropped or deleted
 // job leaves a tombstone so that its id answers 410 Gone rather than 404 (the tombstones are bounded too).
+//
+// JobQueue (at the end) is what the handlers see: one interface, two implementations chosen once at startup
+// (Service::jobs): MemoryJobs (memory_jobs.h: the JobStore below and this process's worker pool) and RedisJobs
+// (redis_jobs.h: the shared queue of --queue-url).
 #pragma once
 
 #include <atomic>
@@ -13,6 +17,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <unordered_map>
 #include <unordered_set>
@@ -22,6 +27,7 @@
 
 #include "engine/cancel.h"
 #include "engine/pipeline.h"
+#include "server/codec/request_loader.h"
 
 namespace lipmap::server {
 
@@ -160,6 +166,104 @@ private:
   std::deque<std::pair<std::string, Clock::time_point>> finished_order_;  // (id, finished), oldest first
   std::unordered_map<std::string, std::string> tombstones_;               // id -> reason
   std::deque<std::string> tombstone_order_;
+};
+
+
+// ---- what the handlers see ------------------------------------------------------------------------------
+
+// The job store cannot be reached (the shared queue's Redis is away): 503 queue_unavailable.
+class QueueUnavailable : public std::runtime_error {
+public:
+  using std::runtime_error::runtime_error;
+};
+
+// Test hooks (only with --test-hooks): X-Lipmap-Test-Delay-Ms and X-Lipmap-Test-Fault (internal, bad_alloc,
+// exception) make a task slow or make it fail, for the tests of deadlines, queueing and error answers.
+struct TestHooks {
+  long long delay_ms = 0;
+  std::string fault;
+};
+
+// A request as it arrived (body, media type, glTF parameters, multipart parts): what the shared queue stores,
+// enough to load the request again on any replica.
+struct StoredRequest {
+  std::string body;
+  std::string media_type;
+  gltf::Params params;
+  std::map<std::string, gltf::Part> parts;
+  codec::RequestInput input() const;  // views into this object
+};
+
+// What POST /v1/jobs hands over: the request parsed (the in-memory queue runs it) and as it arrived (the shared
+// queue stores it), its test hooks and deadline.
+struct JobRequest {
+  std::shared_ptr<const codec::ParametrizeRequest> parsed;
+  std::shared_ptr<const gltf::Asset> asset;  // glTF requests only
+  StoredRequest stored;
+  TestHooks hooks;
+  std::chrono::steady_clock::time_point deadline;
+};
+
+// A finished job's result as computed (to render it: preview, glTF), with the request's glTF document.
+struct ComputedResult {
+  std::shared_ptr<const ParametrizeResult> result;
+  std::shared_ptr<const gltf::Asset> asset;
+  std::shared_ptr<const std::string> json;  // the result JSON, when kept
+};
+
+struct RuntimeGauges;
+
+class JobQueue {
+public:
+  virtual ~JobQueue() = default;
+
+  struct Submitted {
+    enum class Refusal { none, queue_full, shutting_down } refusal = Refusal::none;
+    JobSnapshot snapshot;  // accepted: the job, queued
+    std::string full;      // queue_full: what is full ("all 2 workers are busy and 64 tasks are waiting")
+  };
+  // POST /v1/jobs.
+  virtual Submitted submit(const JobRequest& request) = 0;
+
+  struct Found {
+    JobStore::Lookup lookup = JobStore::Lookup::unknown;
+    JobSnapshot snapshot;     // when found
+    std::string gone_reason;  // when gone: expired, evicted or deleted
+  };
+  virtual Found find(const std::string& id) = 0;
+
+  // DELETE: a finished job is removed (its id answers 410 deleted), a queued one ends at once (cancelled), a
+  // running one is asked to stop.
+  enum class Cancel { unknown, gone, removed, cancelled_queued, cancel_requested };
+  struct Cancelled {
+    Cancel outcome = Cancel::unknown;
+    Found job;  // the job as it is now (not for removed)
+  };
+  virtual Cancelled cancel(const std::string& id) = 0;
+
+  // A succeeded job's result JSON; null when it is no longer held.
+  virtual std::shared_ptr<const std::string> result_json(const std::string& id) = 0;
+  // The computed result, while this process holds it.
+  virtual std::optional<ComputedResult> computed(const std::string& id) = 0;
+  // The job's request as it arrived, to compute the result again (the shared queue); nullopt when not held.
+  virtual std::optional<StoredRequest> stored_request(const std::string& id) = 0;
+  // A rendering of the result (kind: "preview", "gltf:glb", "gltf:gltf") made earlier, and keeping one.
+  virtual std::shared_ptr<const std::string> rendering(const std::string& id, const std::string& kind) = 0;
+  virtual void keep_rendering(const std::string& id, const std::string& kind,
+                      std::shared_ptr<const std::string> body) = 0;
+
+  // Whether POST /v1/jobs needs room in this process's worker pool (the shared queue has its own cap).
+  virtual bool uses_local_pool() const = 0;
+  // /readyz.
+  virtual bool ready() = 0;
+  // /metrics: the jobs by state and the queue's own gauges; drops what expired.
+  virtual void sample(RuntimeGauges& gauges) = 0;
+  // Housekeeping: drops finished jobs past their retention.
+  virtual void sweep() = 0;
+  // Shutdown: the jobs not yet final are cancelled (or, with the shared queue, left to other replicas).
+  virtual void cancel_unfinished(CancelReason reason) = 0;
+  // No more jobs taken; called before the worker pool is joined.
+  virtual void stop() = 0;
 };
 
 // 32 lowercase hex digits from a CSPRNG-seeded generator: unguessable enough that job ids are capabilities.

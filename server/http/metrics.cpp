@@ -184,6 +184,11 @@ std::string Metrics::render(const RuntimeGauges& g) const {
     sample(out, "lipmap_jobs_reclaimed_total", "", static_cast<double>(g.reclaimed));
     header(out, "lipmap_redis_errors_total", "counter", "Redis commands or connections that failed.");
     sample(out, "lipmap_redis_errors_total", "", static_cast<double>(g.redis_errors));
+    header(out, "lipmap_local_results", "gauge", "Results this replica computed and keeps in memory.");
+    sample(out, "lipmap_local_results", "", static_cast<double>(g.local_results));
+    header(out, "lipmap_local_result_reads_total", "counter",
+           "GET .../result answered from this replica's memory instead of a Redis read of the result.");
+    sample(out, "lipmap_local_result_reads_total", "", static_cast<double>(g.local_result_reads));
   }
 
   header(out, "lipmap_engine_stage_seconds", "histogram", "Engine wall time per stage of finished work.");

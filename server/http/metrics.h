@@ -39,6 +39,8 @@ struct RuntimeGauges {
   bool redis_up = false;
   long long shared_waiting = 0;  // jobs in the shared queue waiting for a worker of any replica
   std::uint64_t reclaimed = 0, redis_errors = 0;
+  std::size_t local_results = 0;          // results this replica computed and keeps in memory
+  std::uint64_t local_result_reads = 0;   // GET .../result answered from them (no Redis read of the result)
 };
 
 class Metrics {

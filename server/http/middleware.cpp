@@ -10,6 +10,7 @@
 #include "server/codec/error_table.h"
 #include "server/codec/text.h"
 #include "server/http/connection.h"
+#include "server/http/handlers.h"
 #include "server/http/job_store.h"
 #include "server/http/memory_budget.h"
 
@@ -171,7 +172,9 @@ bool pre_routing(Service& service, const httplib::Request& req, httplib::Respons
       send(res, std::move(*a));
       return true;
     }
-    if (service.pool.full()) {
+    // A job for the shared queue does not need room in this process's pool: the cluster-wide cap decides.
+    const bool needs_pool = op->handler != &post_job || service.jobs->uses_local_pool();
+    if (needs_pool && service.pool.full()) {
       send(res, service.submit_refused(WorkerPool::Submit::queue_full));
       // A small body that has already arrived is dropped unread and the connection stays open: closing after
       // every refusal made each retry pay for a new connection. A larger body, or one still on its way, is

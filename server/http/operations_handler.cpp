@@ -41,7 +41,7 @@ Answer get_healthz(Service&, const httplib::Request&) { return text("ok\n"); }
 // Readiness: 503 once draining, so that a load balancer stops sending work.
 Answer get_readyz(Service& service, const httplib::Request&) {
   if (service.draining) return problem_answer("shutting_down", "the service is shutting down");
-  if (service.cluster && !service.cluster->ready()) {
+  if (!service.jobs->ready()) {
     Answer a = problem_answer("queue_unavailable", "the shared job queue (Redis) cannot be reached");
     a.headers.emplace_back("Retry-After", "2");
     return a;
@@ -50,23 +50,14 @@ Answer get_readyz(Service& service, const httplib::Request&) {
 }
 
 Answer get_metrics(Service& service, const httplib::Request&) {
-  service.store.sweep();
   RuntimeGauges g;
   g.workers = service.pool.workers();
   g.workers_busy = service.pool.busy();
   g.queue_depth = service.pool.queue_depth();
   g.queue_capacity = service.pool.capacity();
-  g.jobs_by_state = service.store.counts_by_state();
   g.draining = service.draining;
   g.uptime_seconds = std::chrono::duration<double>(Clock::now() - service.started_at).count();
-  if (service.cluster) {
-    g.shared_queue = true;
-    g.shared_waiting = service.cluster->waiting();
-    g.redis_up = g.shared_waiting >= 0;
-    g.shared_waiting = std::max(g.shared_waiting, 0LL);
-    g.reclaimed = service.cluster->reclaimed();
-    g.redis_errors = service.cluster->errors();
-  }
+  service.jobs->sample(g);
   Answer a;
   a.content_type = "text/plain; version=0.0.4; charset=utf-8";
   a.body = service.metrics.render(g);

@@ -6,10 +6,10 @@
 #include <cstdlib>
 #include <random>
 
-#include <hiredis/hiredis.h>
 #include <nlohmann/json.hpp>
 
 #include "server/http/handlers.h"
+#include "server/http/metrics.h"
 #include "server/http/service.h"
 
 namespace lipmap::server {
@@ -27,7 +27,8 @@ const std::string kGroup = "workers";
 constexpr long long kMaxAttempts = 5;
 // How long a dropped job's id still answers 410 rather than 404.
 constexpr long long kTombstoneMs = 24LL * 3600 * 1000;
-constexpr std::size_t kLocalCache = 8;
+// The results a replica keeps in memory (LocalResults), in all.
+constexpr std::size_t kLocalBytes = 256u << 20;
 
 std::string job_key(const std::string& id) { return "lipmap:job:" + id; }
 std::string req_key(const std::string& id) { return "lipmap:req:" + id; }
@@ -115,122 +116,6 @@ std::string replica_name() {
 
 }  // namespace
 
-// ---- the URL ----------------------------------------------------------------------------------------------
-
-RedisUrl parse_redis_url(const std::string& url) {
-  const std::string scheme = "redis://";
-  auto bad = [&](const std::string& why) {
-    throw std::invalid_argument("queue URL " + json(url).dump(-1, ' ', false, json::error_handler_t::replace) +
-                                " " + why + " (expected redis://HOST[:PORT][/DB])");
-  };
-  if (url.compare(0, scheme.size(), scheme) != 0) bad("does not start with redis://");
-  std::string rest = url.substr(scheme.size());
-  RedisUrl u;
-  if (const auto slash = rest.find('/'); slash != std::string::npos) {
-    const std::string db = rest.substr(slash + 1);
-    rest.resize(slash);
-    if (!db.empty()) {
-      if (db.size() > 4 || !std::all_of(db.begin(), db.end(), [](char c) { return c >= '0' && c <= '9'; }))
-        bad("has a database that is not a number");
-      u.db = std::stoi(db);
-    }
-  }
-  if (rest.find('@') != std::string::npos) bad("has credentials, which are not supported");
-  if (const auto colon = rest.rfind(':'); colon != std::string::npos && rest.find(']') == std::string::npos) {
-    const std::string port = rest.substr(colon + 1);
-    rest.resize(colon);
-    if (port.empty() || port.size() > 5 ||
-        !std::all_of(port.begin(), port.end(), [](char c) { return c >= '0' && c <= '9'; }))
-      bad("has a port that is not a number");
-    u.port = std::stoi(port);
-    if (u.port < 1 || u.port > 65535) bad("has a port outside 1..65535");
-  }
-  if (rest.empty()) bad("has no host");
-  u.host = rest;
-  return u;
-}
-
-// ---- one connection ---------------------------------------------------------------------------------------
-
-namespace {
-
-struct ReplyDeleter {
-  void operator()(redisReply* r) const { if (r) freeReplyObject(r); }
-};
-using Reply = std::unique_ptr<redisReply, ReplyDeleter>;
-
-// An error reply of Redis (e.g. NOGROUP): the connection itself is fine.
-class ReplyError : public QueueUnavailable {
-public:
-  using QueueUnavailable::QueueUnavailable;
-};
-
-std::string str(const redisReply* r) {
-  if (!r) return {};
-  if (r->type == REDIS_REPLY_STRING || r->type == REDIS_REPLY_STATUS) return std::string(r->str, r->len);
-  if (r->type == REDIS_REPLY_INTEGER) return std::to_string(r->integer);
-  return {};
-}
-
-long long integer(const redisReply* r) {
-  if (!r) return 0;
-  if (r->type == REDIS_REPLY_INTEGER) return r->integer;
-  if (r->type == REDIS_REPLY_STRING) return std::atoll(std::string(r->str, r->len).c_str());
-  return 0;
-}
-
-bool is_array(const redisReply* r, std::size_t min_elements = 0) {
-  return r && r->type == REDIS_REPLY_ARRAY && r->elements >= min_elements;
-}
-
-}  // namespace
-
-class RedisConnection {
-public:
-  RedisConnection(const RedisUrl& url, std::chrono::milliseconds timeout) {
-    timeval tv{static_cast<time_t>(timeout.count() / 1000), static_cast<suseconds_t>((timeout.count() % 1000) * 1000)};
-    c_ = redisConnectWithTimeout(url.host.c_str(), url.port, tv);
-    if (!c_) throw QueueUnavailable("cannot allocate a Redis connection");
-    if (c_->err) {
-      const std::string why = c_->errstr;
-      redisFree(c_);
-      c_ = nullptr;
-      throw QueueUnavailable("cannot connect to Redis at " + url.host + ":" + std::to_string(url.port) + ": " + why);
-    }
-    redisSetTimeout(c_, tv);
-    if (url.db != 0) command({"SELECT", std::to_string(url.db)});
-  }
-  ~RedisConnection() { if (c_) redisFree(c_); }
-  RedisConnection(const RedisConnection&) = delete;
-  RedisConnection& operator=(const RedisConnection&) = delete;
-
-  Reply command(const std::vector<std::string>& args) {
-    if (broken_) throw QueueUnavailable("the Redis connection is broken");
-    std::vector<const char*> argv;
-    std::vector<size_t> lengths;
-    argv.reserve(args.size());
-    lengths.reserve(args.size());
-    for (const std::string& a : args) {
-      argv.push_back(a.data());
-      lengths.push_back(a.size());
-    }
-    Reply r(static_cast<redisReply*>(
-        redisCommandArgv(c_, static_cast<int>(argv.size()), argv.data(), lengths.data())));
-    if (!r || c_->err) {
-      broken_ = true;
-      throw QueueUnavailable(std::string("Redis: ") + (c_->err ? c_->errstr : "no reply"));
-    }
-    if (r->type == REDIS_REPLY_ERROR) throw ReplyError("Redis " + args[0] + ": " + std::string(r->str, r->len));
-    return r;
-  }
-  bool broken() const { return broken_; }
-
-private:
-  redisContext* c_ = nullptr;
-  bool broken_ = false;
-};
-
-// A connection of the handlers' pool; it goes back to the pool unless it broke.
 class RedisJobs::Lease {
 public:
   explicit Lease(RedisJobs& jobs) : jobs_(jobs) {
@@ -278,17 +163,6 @@ private:
   std::unique_ptr<RedisConnection> conn_;
 };
 
-// ---- the stored request -----------------------------------------------------------------------------------
-
-codec::RequestInput StoredRequest::input() const {
-  codec::RequestInput in;
-  in.body = body;
-  in.media_type = media_type;
-  in.parts = parts;
-  in.gltf_params = params;
-  return in;
-}
-
 // ---- RedisJobs --------------------------------------------------------------------------------------------
 
 struct RedisJobs::Running {
@@ -302,7 +176,8 @@ RedisJobs::RedisJobs(Service& service)
       url_(parse_redis_url(service.config.queue_url)),
       consumer_(replica_name()),
       visibility_(static_cast<long long>(service.config.queue_visibility_seconds * 1000)),
-      ttl_(std::max<long long>(1, static_cast<long long>(service.config.result_ttl_seconds * 1000))) {
+      ttl_(std::max<long long>(1, static_cast<long long>(service.config.result_ttl_seconds * 1000))),
+      local_(service.config.max_results, kLocalBytes, ttl_) {
   fetcher_ = std::thread([this] { fetch_loop(); });
   heartbeat_ = std::thread([this] { heartbeat_loop(); });
 }
@@ -317,9 +192,13 @@ void RedisJobs::stop() {
   if (heartbeat_.joinable()) heartbeat_.join();
 }
 
-void RedisJobs::stop_fetching() {
-  fetching_ = false;
-  wake_.notify_all();
+void RedisJobs::cancel_unfinished(CancelReason) {
+  if (fetching_) {
+    fetching_ = false;
+    wake_.notify_all();
+  } else {
+    hand_back_running();
+  }
 }
 
 std::unique_ptr<RedisConnection> RedisJobs::connect() {
@@ -335,12 +214,24 @@ bool RedisJobs::local_capacity() const {
   return service_.pool.busy() + service_.pool.queue_depth() < service_.pool.workers();
 }
 
-std::string RedisJobs::submit(const StoredRequest& request, SysClock::time_point deadline, long long delay_ms,
-                              const std::string& fault) {
+JobQueue::Submitted RedisJobs::submit(const JobRequest& request) {
+  Submitted out;
+  try {
+    out.snapshot.id = enqueue(request);
+    out.snapshot.created_at = SysClock::now();
+  } catch (const SharedQueueFull& full) {
+    out.refusal = Submitted::Refusal::queue_full;
+    out.full = std::to_string(full.waiting) + " jobs wait in the shared queue, its limit";
+  }
+  return out;
+}
+
+std::string RedisJobs::enqueue(const JobRequest& job) {
+  const StoredRequest& request = job.stored;
   const std::string id = new_job_id();
   const long long created = now_ms();
   const long long deadline_ms =
-      std::chrono::duration_cast<std::chrono::milliseconds>(deadline.time_since_epoch()).count();
+      created + std::chrono::duration_cast<std::chrono::milliseconds>(job.deadline - std::chrono::steady_clock::now()).count();
   // Until it finishes a job is kept for its deadline plus the retention time (and the visibility timeout, for
   // a last run that is taken over).
   const long long keep = std::max<long long>(deadline_ms - created, 0) + ttl_.count() + visibility_.count() + 60000;
@@ -361,7 +252,7 @@ std::string RedisJobs::submit(const StoredRequest& request, SysClock::time_point
   redis(hset);
   redis({"PEXPIRE", req_key(id), std::to_string(keep)});
   Reply r = redis({"EVAL", kSubmit, "2", kStream, job_key(id), std::to_string(service_.config.queue_capacity), id,
-                   std::to_string(created), std::to_string(deadline_ms), std::to_string(delay_ms), fault,
+                   std::to_string(created), std::to_string(deadline_ms), std::to_string(job.hooks.delay_ms), job.hooks.fault,
                    std::to_string(keep)});
   if (!is_array(r.get(), 2)) throw QueueUnavailable("Redis: unexpected answer to the submit script");
   if (integer(r->element[0]) == 0) {
@@ -453,8 +344,17 @@ RedisJobs::Found RedisJobs::find(const std::string& id) {
   return f;
 }
 
-RedisJobs::Cancel RedisJobs::cancel(const std::string& id, const std::string& problem_json) {
+JobQueue::Cancelled RedisJobs::cancel(const std::string& id) {
+  Cancelled out;
+  out.outcome = cancel_in_redis(id);
+  if (out.outcome != Cancel::removed) out.job = find(id);
+  return out;
+}
+
+JobQueue::Cancel RedisJobs::cancel_in_redis(const std::string& id) {
   Lease redis(*this);
+  const std::string problem_json =
+      problem("cancelled", "the job was cancelled at the client's request before it started").dump();
   const std::string before = str(redis({"EVAL", kCancel, "1", job_key(id), problem_json, std::to_string(now_ms())}).get());
   if (before == "missing") {
     return str(redis({"GET", gone_key(id)}).get()).empty() ? Cancel::unknown : Cancel::gone;
@@ -476,15 +376,15 @@ RedisJobs::Cancel RedisJobs::cancel(const std::string& id, const std::string& pr
   redis({"DEL", job_key(id), req_key(id), result_key(id), rendering_key(id, "preview"), rendering_key(id, "gltf:glb"),
          rendering_key(id, "gltf:gltf")});
   redis({"SET", gone_key(id), "deleted", "PX", std::to_string(kTombstoneMs)});
-  {
-    std::lock_guard<std::mutex> lock(cache_mutex_);
-    cache_.erase(std::remove_if(cache_.begin(), cache_.end(), [&](const auto& e) { return e.first == id; }),
-                 cache_.end());
-  }
+  local_.erase(id);
   return Cancel::removed;
 }
 
 std::shared_ptr<const std::string> RedisJobs::result_json(const std::string& id) {
+  if (std::optional<ComputedResult> mine = local_.get(id); mine && mine->json) {
+    ++local_reads_;
+    return mine->json;
+  }
   Lease redis(*this);
   Reply r = redis({"GET", result_key(id)});
   if (r->type != REDIS_REPLY_STRING) return nullptr;
@@ -498,12 +398,13 @@ std::shared_ptr<const std::string> RedisJobs::rendering(const std::string& id, c
   return std::make_shared<const std::string>(r->str, r->len);
 }
 
-void RedisJobs::keep_rendering(const std::string& id, const std::string& kind, const std::string& body) {
+void RedisJobs::keep_rendering(const std::string& id, const std::string& kind,
+                               std::shared_ptr<const std::string> body) {
   Lease redis(*this);
   // As long as the job itself is kept.
   const long long left = integer(redis({"PTTL", job_key(id)}).get());
   if (left <= 0) return;
-  redis({"SET", rendering_key(id, kind), body, "PX", std::to_string(left)});
+  redis({"SET", rendering_key(id, kind), *body, "PX", std::to_string(left)});
 }
 
 std::optional<StoredRequest> RedisJobs::stored_request(const std::string& id) {
@@ -524,12 +425,7 @@ std::optional<StoredRequest> RedisJobs::stored_request(const std::string& id) {
   return s;
 }
 
-std::optional<RedisJobs::Local> RedisJobs::local_result(const std::string& id) {
-  std::lock_guard<std::mutex> lock(cache_mutex_);
-  for (const auto& [k, v] : cache_)
-    if (k == id) return v;
-  return std::nullopt;
-}
+std::optional<ComputedResult> RedisJobs::computed(const std::string& id) { return local_.get(id); }
 
 bool RedisJobs::ready() {
   try {
@@ -538,6 +434,20 @@ bool RedisJobs::ready() {
   } catch (const QueueUnavailable&) {
     return false;
   }
+}
+
+void RedisJobs::sample(RuntimeGauges& g) {
+  // Jobs are not held here: every state counts zero (the shared queue's gauges say what waits).
+  for (JobState s : {JobState::queued, JobState::running, JobState::succeeded, JobState::failed, JobState::cancelled})
+    g.jobs_by_state[to_string(s)] = 0;
+  g.shared_queue = true;
+  const long long n = waiting();
+  g.redis_up = n >= 0;
+  g.shared_waiting = std::max(n, 0LL);
+  g.reclaimed = reclaimed_;
+  g.redis_errors = errors_;
+  g.local_results = local_.size();
+  g.local_result_reads = local_reads_;
 }
 
 long long RedisJobs::waiting() {
@@ -710,7 +620,7 @@ void RedisJobs::run_job(const std::string& entry, const std::string& id) {
     }
     service_.event(spdlog::level::info, {{"event", "job_started"}, {"job_id", id}, {"attempt", attempts}, {"consumer", consumer_}});
     std::shared_ptr<const std::string> text;
-    Local local;
+    ComputedResult local;
     try {
       if (attempts > kMaxAttempts)
         throw InternalError("the job was started " + std::to_string(attempts - 1) +
@@ -768,9 +678,8 @@ void RedisJobs::run_job(const std::string& entry, const std::string& id) {
       }
     }
     if (text) {
-      std::lock_guard<std::mutex> lock(cache_mutex_);
-      cache_.emplace_back(id, local);
-      if (cache_.size() > kLocalCache) cache_.erase(cache_.begin());
+      local.json = text;
+      local_.put(id, std::move(local));
     }
     wake();  // this worker is free: the fetcher may take the next job now
     service_.metrics.count_job_finished(to_string(s.state));
@@ -793,6 +702,73 @@ void RedisJobs::run_job(const std::string& entry, const std::string& id) {
 void RedisJobs::hand_back_running() {
   std::lock_guard<std::mutex> lock(running_mutex_);
   for (auto& [id, r] : running_) r->job.request_cancel(CancelReason::shutdown);
+}
+
+}  // namespace lipmap::server
+
+// ---- LocalResults -----------------------------------------------------------------------------------------
+
+namespace lipmap::server {
+
+LocalResults::LocalResults(std::size_t max_entries, std::size_t max_bytes, std::chrono::milliseconds ttl)
+    : max_entries_(max_entries), max_bytes_(max_bytes), ttl_(ttl) {}
+
+void LocalResults::put(const std::string& id, ComputedResult result) {
+  const auto now = Clock::now();
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (auto it = by_id_.find(id); it != by_id_.end()) {
+    bytes_ -= it->second->bytes;
+    order_.erase(it->second);
+    by_id_.erase(it);
+  }
+  const std::size_t bytes = result.json ? result.json->size() : 0;
+  if (bytes > max_bytes_) return;  // would leave room for nothing else
+  order_.push_front(Entry{id, std::move(result), bytes, now + ttl_});
+  by_id_[id] = order_.begin();
+  bytes_ += bytes;
+  trim_locked(now);
+}
+
+std::optional<ComputedResult> LocalResults::get(const std::string& id) {
+  const auto now = Clock::now();
+  std::lock_guard<std::mutex> lock(mutex_);
+  trim_locked(now);
+  auto it = by_id_.find(id);
+  if (it == by_id_.end()) return std::nullopt;
+  order_.splice(order_.begin(), order_, it->second);  // most recently used
+  return it->second->result;
+}
+
+void LocalResults::erase(const std::string& id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (auto it = by_id_.find(id); it != by_id_.end()) {
+    bytes_ -= it->second->bytes;
+    order_.erase(it->second);
+    by_id_.erase(it);
+  }
+}
+
+std::size_t LocalResults::size() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return order_.size();
+}
+
+void LocalResults::trim_locked(Clock::time_point now) {
+  // Expired entries anywhere, then the least recently used while over a bound.
+  for (auto it = order_.begin(); it != order_.end();) {
+    if (it->expires > now) {
+      ++it;
+      continue;
+    }
+    bytes_ -= it->bytes;
+    by_id_.erase(it->id);
+    it = order_.erase(it);
+  }
+  while (!order_.empty() && (order_.size() > max_entries_ || bytes_ > max_bytes_)) {
+    bytes_ -= order_.back().bytes;
+    by_id_.erase(order_.back().id);
+    order_.pop_back();
+  }
 }
 
 }  // namespace lipmap::server

@@ -1,6 +1,7 @@
 // The shared job queue of `lipmap serve --queue-url redis://...` (docs/cluster.md): the jobs of every replica
 // live in Redis, so that any replica answers GET, DELETE, /result and /preview.svg for any job, and a job whose
-// replica died is run again by another one. Without --queue-url the in-memory JobStore (job_store.h) is used.
+// replica died is run again by another one. One of the two JobQueues (job_store.h); without --queue-url the
+// other, MemoryJobs (memory_jobs.h), is used.
 //
 // Keys (all with the prefix "lipmap:"):
 //   jobs            Stream of job ids, read by the consumer group "workers" (one consumer per replica)
@@ -12,15 +13,21 @@
 // claim on the stream entry (XCLAIM, every visibility/4) and polls the cancel flag; an entry whose claim
 // was not renewed for the visibility timeout is taken over by another replica (XAUTOCLAIM).
 //
-// Redis is reached with hiredis only (redisCommandArgv); a command that cannot reach Redis throws
+// Redis is reached with hiredis only (redis_connection.h); a command that cannot reach Redis throws
 // QueueUnavailable, which the handlers answer 503 queue_unavailable. Connections are re-made with an
 // exponential backoff (0.1 s to 5 s).
+//
+// The replica that ran a job keeps its result in memory for a while (LocalResults: the last --max-results,
+// at most the retention time, 256 MiB in all), so that GET .../result landing there reads the result from
+// memory instead of Redis and a rendering is made without running the job again. Whether the job is still
+// held (not deleted or expired) is always asked of Redis.
 #pragma once
 
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
+#include <list>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -28,28 +35,15 @@
 #include <stdexcept>
 #include <string>
 #include <thread>
+#include <unordered_map>
 #include <vector>
 
-#include "server/codec/request_loader.h"
 #include "server/http/job_store.h"
+#include "server/http/redis_connection.h"
 
 namespace lipmap::server {
 
 class Service;
-
-struct RedisUrl {
-  std::string host;
-  int port = 6379;
-  int db = 0;
-};
-// redis://HOST[:PORT][/DB]; throws std::invalid_argument naming what is wrong.
-RedisUrl parse_redis_url(const std::string& url);
-
-// Redis cannot be reached (or answered an error where it should not): 503 queue_unavailable.
-class QueueUnavailable : public std::runtime_error {
-public:
-  using std::runtime_error::runtime_error;
-};
 
 // The shared queue already holds --queue jobs that wait for a worker.
 class SharedQueueFull : public std::runtime_error {
@@ -58,72 +52,74 @@ public:
   std::size_t waiting;
 };
 
-// What POST /v1/jobs received, as stored in req:{id}: enough to load the request again on any replica.
-struct StoredRequest {
-  std::string body;
-  std::string media_type;
-  gltf::Params params;
-  std::map<std::string, gltf::Part> parts;
-  codec::RequestInput input() const;  // views into this object
+// The results a replica computed, least recently used dropped first: at most `max_entries` and `max_bytes` of
+// result JSON (a single larger one is not kept), each for at most `ttl` after it was put.
+class LocalResults {
+public:
+  using Clock = std::chrono::steady_clock;
+  LocalResults(std::size_t max_entries, std::size_t max_bytes, std::chrono::milliseconds ttl);
+  void put(const std::string& id, ComputedResult result);
+  std::optional<ComputedResult> get(const std::string& id);  // counts as a use
+  void erase(const std::string& id);
+  std::size_t size() const;
+
+private:
+  struct Entry {
+    std::string id;
+    ComputedResult result;
+    std::size_t bytes;
+    Clock::time_point expires;
+  };
+  void trim_locked(Clock::time_point now);
+  const std::size_t max_entries_, max_bytes_;
+  const std::chrono::milliseconds ttl_;
+  mutable std::mutex mutex_;
+  std::list<Entry> order_;  // most recently used first
+  std::unordered_map<std::string, std::list<Entry>::iterator> by_id_;
+  std::size_t bytes_ = 0;
 };
 
-class RedisConnection;
-
-class RedisJobs {
+class RedisJobs : public JobQueue {
 public:
   explicit RedisJobs(Service& service);
-  ~RedisJobs();  // stop()
+  ~RedisJobs() override;  // stop()
   RedisJobs(const RedisJobs&) = delete;
   RedisJobs& operator=(const RedisJobs&) = delete;
 
   // ---- what the handlers ask (any replica) ----
-  // Stores the request and queues the job; returns its id. Throws SharedQueueFull, QueueUnavailable.
-  std::string submit(const StoredRequest& request, std::chrono::system_clock::time_point deadline,
-                     long long delay_ms, const std::string& fault);
-  struct Found {
-    JobStore::Lookup lookup = JobStore::Lookup::unknown;
-    JobSnapshot snapshot;     // when found
-    std::string gone_reason;  // when gone
-  };
-  Found find(const std::string& id);
-  enum class Cancel { unknown, gone, removed, cancelled_queued, cancel_requested };
-  // DELETE: a finished job is removed (its keys dropped, the id answers 410 deleted), a queued one ends at
-  // once (cancelled), a running one gets its cancel flag (its replica sees it within a heartbeat).
-  Cancel cancel(const std::string& id, const std::string& problem_json);
-  std::shared_ptr<const std::string> result_json(const std::string& id);
-  // A rendering of the result (kind: "preview", "gltf:glb", "gltf:gltf"), kept as long as the job.
-  std::shared_ptr<const std::string> rendering(const std::string& id, const std::string& kind);
-  void keep_rendering(const std::string& id, const std::string& kind, const std::string& body);
-  // The job's request, loaded again (for renderings on a replica that did not run the job); nullopt when
-  // Redis no longer holds it.
-  std::optional<StoredRequest> stored_request(const std::string& id);
-  // The result this replica computed, while it is in its small local cache.
-  struct Local {
-    std::shared_ptr<const ParametrizeResult> result;
-    std::shared_ptr<const gltf::Asset> asset;
-  };
-  std::optional<Local> local_result(const std::string& id);
+  // Stores the request and queues the job, unless --queue jobs already wait (queue_full).
+  Submitted submit(const JobRequest& request) override;
+  Found find(const std::string& id) override;
+  // A running job gets its cancel flag (its replica sees it within a heartbeat).
+  Cancelled cancel(const std::string& id) override;
+  // From this replica's memory when it ran the job, else from Redis.
+  std::shared_ptr<const std::string> result_json(const std::string& id) override;
+  std::optional<ComputedResult> computed(const std::string& id) override;
+  std::optional<StoredRequest> stored_request(const std::string& id) override;
+  // Renderings are kept in Redis as long as the job.
+  std::shared_ptr<const std::string> rendering(const std::string& id, const std::string& kind) override;
+  void keep_rendering(const std::string& id, const std::string& kind,
+                      std::shared_ptr<const std::string> body) override;
+  bool uses_local_pool() const override { return false; }
+  // True when Redis answers PING.
+  bool ready() override;
+  void sample(RuntimeGauges& gauges) override;
+  void sweep() override {}  // Redis expires the keys
+  // The first call (the drain) stops taking jobs and lets the running ones finish, since any replica can
+  // still answer for them; a later one (grace over, second signal) hands them to another replica.
+  void cancel_unfinished(CancelReason reason) override;
+  void stop() override;
 
-  // /readyz: true when Redis answers PING.
-  bool ready();
   // Jobs in the shared queue that wait for a worker (-1 when Redis cannot be reached).
   long long waiting();
-  std::uint64_t reclaimed() const { return reclaimed_; }
-  std::uint64_t errors() const { return errors_; }
-
-  // ---- shutdown ----
-  // No new jobs are taken from the queue; running ones go on.
-  void stop_fetching();
-  bool fetching() const { return fetching_; }
-  // The jobs this replica still runs are cancelled and put back in the queue for another replica.
-  void hand_back_running();
-  void stop();
 
 private:
   struct Running;
   std::unique_ptr<RedisConnection> connect();
   // A connection of the handler pool (made when none is free, subject to the backoff).
   class Lease;
+  std::string enqueue(const JobRequest& request);  // throws SharedQueueFull
+  Cancel cancel_in_redis(const std::string& id);
   void fetch_loop();
   void heartbeat_loop();
   void run_job(const std::string& entry, const std::string& id);
@@ -133,6 +129,7 @@ private:
   bool local_capacity() const;
   void wake();  // the fetcher looks again at once
   void note_error(const std::string& where, const std::string& what);
+  void hand_back_running();  // the jobs this replica runs are cancelled and put back in the queue
 
   Service& service_;
   const RedisUrl url_;
@@ -146,11 +143,10 @@ private:
 
   std::mutex running_mutex_;
   std::map<std::string, std::shared_ptr<Running>> running_;  // by job id
-  std::mutex cache_mutex_;
-  std::vector<std::pair<std::string, Local>> cache_;  // last few results computed here, newest last
+  LocalResults local_;
 
   std::atomic<bool> fetching_{true}, stopping_{false};
-  std::atomic<std::uint64_t> reclaimed_{0}, errors_{0};
+  std::atomic<std::uint64_t> reclaimed_{0}, errors_{0}, local_reads_{0};
   std::mutex wake_mutex_;
   std::condition_variable wake_;
   std::uint64_t wakeups_ = 0;  // with wake_mutex_

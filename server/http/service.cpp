@@ -8,7 +8,9 @@
 #include <thread>
 
 #include "engine/error.h"
+#include "server/http/memory_jobs.h"
 #include "server/http/middleware.h"
+#include "server/http/redis_jobs.h"
 
 // Last: with its OpenSSL support cpp-httplib pulls in <resolv.h>, whose `_res` macro breaks Eigen's headers.
 #include <httplib.h>
@@ -63,16 +65,15 @@ struct Service::SyncWork {
 Service::Service(ServerConfig c, std::shared_ptr<spdlog::logger> logger)
     : config(resolve(std::move(c))),
       log(std::move(logger)),
-      pool(config.workers, config.queue_capacity),
-      store(JobStore::Limits{config.max_results,
-                             std::chrono::milliseconds(static_cast<long long>(config.result_ttl_seconds * 1000)),
-                             100000},
-            [this](const std::string& why) { metrics.count_results_dropped(why); }) {
-  if (!config.queue_url.empty()) cluster = std::make_unique<RedisJobs>(*this);
+      pool(config.workers, config.queue_capacity) {
+  if (config.queue_url.empty())
+    jobs = std::make_unique<MemoryJobs>(*this);
+  else
+    jobs = std::make_unique<RedisJobs>(*this);
 }
 
 Service::~Service() {
-  if (cluster) cluster->stop();  // no more jobs taken; those on the pool end before it is joined
+  jobs->stop();  // no more jobs taken; those on the pool end before it is joined
   pool.join();
 }
 
@@ -96,19 +97,21 @@ std::optional<Answer> Service::refuse_when_draining() const {
 }
 
 Answer Service::submit_refused(WorkerPool::Submit why) {
-  if (why == WorkerPool::Submit::queue_full) {
-    metrics.count_rejected("queue_full");
-    const int retry = pool.retry_after_seconds();
-    Answer a = problem_answer("queue_full", "all " + std::to_string(pool.workers()) + " workers are busy and " +
-                                                std::to_string(pool.capacity()) + " tasks are waiting; retry after " +
-                                                std::to_string(retry) + " s");
-    (*a.problem)["retry_after_seconds"] = retry;
-    a.headers.emplace_back("Retry-After", std::to_string(retry));
-    return a;
-  }
+  if (why == WorkerPool::Submit::queue_full)
+    return queue_full("all " + std::to_string(pool.workers()) + " workers are busy and " +
+                      std::to_string(pool.capacity()) + " tasks are waiting");
   metrics.count_rejected("shutting_down");
   Answer a = problem_answer("shutting_down", "the service is shutting down and takes no new work");
   a.headers.emplace_back("Retry-After", "5");
+  return a;
+}
+
+Answer Service::queue_full(const std::string& what) {
+  metrics.count_rejected("queue_full");
+  const int retry = pool.retry_after_seconds();
+  Answer a = problem_answer("queue_full", what + "; retry after " + std::to_string(retry) + " s");
+  (*a.problem)["retry_after_seconds"] = retry;
+  a.headers.emplace_back("Retry-After", std::to_string(retry));
   return a;
 }
 

@@ -20,7 +20,6 @@
 #include "server/http/job_store.h"
 #include "server/http/metrics.h"
 #include "server/http/problems.h"
-#include "server/http/redis_jobs.h"
 #include "server/http/worker_pool.h"
 
 namespace httplib {
@@ -34,13 +33,7 @@ using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t);
 std::string iso8601(std::chrono::system_clock::time_point t);
 
-// Test hooks (only with --test-hooks): X-Lipmap-Test-Delay-Ms and X-Lipmap-Test-Fault (internal, bad_alloc,
-// exception) make a task slow or make it fail, for the tests of deadlines, queueing and error answers.
-struct TestHooks {
-  long long delay_ms = 0;
-  std::string fault;
-};
-// Runs inside the task, before its work.
+// Runs inside a task (TestHooks: job_store.h), before its work.
 void apply_hooks(const TestHooks& hooks, const CancelToken& token);
 
 class Service {
@@ -52,10 +45,9 @@ public:
   const std::shared_ptr<spdlog::logger> log;
   Metrics metrics;
   WorkerPool pool;
-  JobStore store;
-  // The shared job queue (--queue-url); null: the jobs are the in-memory store's. Declared after the pool
-  // and stopped before it is joined (~Service).
-  std::unique_ptr<RedisJobs> cluster;
+  // The asynchronous jobs, chosen once: in memory on this process's pool (MemoryJobs), or the shared queue of
+  // --queue-url (RedisJobs). Declared after the pool and stopped before it is joined (~Service).
+  std::unique_ptr<JobQueue> jobs;
   std::atomic<bool> draining{false};
   const Clock::time_point started_at = Clock::now();
 
@@ -68,6 +60,8 @@ public:
   std::optional<Answer> refuse_when_draining() const;
   // The answer to a task the pool did not take.
   Answer submit_refused(WorkerPool::Submit why);
+  // 503 queue_full: `what` is full ("all 2 workers are busy and 64 tasks are waiting").
+  Answer queue_full(const std::string& what);
   // The request's deadline, counted from its arrival.
   Clock::time_point deadline_from_arrival() const;
   TestHooks hooks_of(const httplib::Request& req) const;

@@ -48,11 +48,12 @@ stop_redis() {
   wait_until 20 bash -c "! kill -0 $pid" || kill -KILL "$pid" 2>/dev/null || true
 }
 
-# start_replica N: replica N (1..3) on REPLICA<N>_PORT, one worker.
+# start_replica N: replica N (1..3, or 4 for a test's own) on REPLICA<N>_PORT, one worker; its queue (the
+# cluster-wide cap, and the length of its own pool's queue) is REPLICA_QUEUE (64).
 start_replica() {
   local n="$1" port_var="REPLICA${1}_PORT"
   local port="${!port_var}"
-  "$LIPMAP" serve --host 127.0.0.1 --port "$port" --workers 1 --queue 64 --test-hooks \
+  "$LIPMAP" serve --host 127.0.0.1 --port "$port" --workers 1 --queue "${REPLICA_QUEUE:-64}" --test-hooks \
     --queue-url "redis://127.0.0.1:$REDIS_PORT" --queue-visibility "$CLUSTER_VISIBILITY" \
     2>>"$BATS_FILE_TMPDIR/replica$n.log" &
   # The pid in a file: a replica restarted by one test must be known to the next ones and to teardown_file.
@@ -134,7 +135,7 @@ setup_cluster() {
 teardown_cluster() {
   [ -n "${NGINX_PID:-}" ] && kill -QUIT "$NGINX_PID" 2>/dev/null
   local n
-  for n in 1 2 3; do stop_replica "$n" || true; done
+  for n in 1 2 3 4; do stop_replica "$n" || true; done
   stop_server SINGLE || true
   stop_redis
   [ -n "${NGINX_PID:-}" ] && { wait_until 10 bash -c "! kill -0 $NGINX_PID" || kill -KILL "$NGINX_PID" 2>/dev/null; }

@@ -182,3 +182,61 @@ running_replica_of_long() {
     [ "$v" -ge 1 ]
   done
 }
+
+@test "POST /v1/jobs to a replica whose own pool is full: 202 queued (the cluster-wide cap decides), run by a free replica" {
+  REPLICA4_PORT="$(free_port)"
+  export REPLICA4_PORT
+  REPLICA_QUEUE=1 start_replica 4
+  # Its one worker and its pool's one waiting place taken by synchronous requests that wait 4 s.
+  local sync=() i id
+  for i in 1 2; do
+    curl -s -o /dev/null --max-time 60 --json "@$(body_file 0)" -H 'X-Lipmap-Test-Delay-Ms: 4000' \
+      "$REPLICA4_URL/v1/parametrize" &
+    sync+=($!)
+  done
+  wait_until 20 bash -c "curl -sf '$REPLICA4_URL/metrics' | grep -qx 'lipmap_queue_depth 1'"
+  # The pool is full: synchronous work is refused there ...
+  call POST "$REPLICA4_URL/v1/parametrize" --json "@$(body_file 0)"
+  expect 503 queue_full
+  # ... a job is not: it waits in the shared queue (cap 1, empty) for a replica with a free worker.
+  call -s job.schema.json POST "$REPLICA4_URL/v1/jobs" --json "@$(body_file 3)"
+  expect 202
+  [ "$(jq -r .state "$answer")" = queued ]
+  id="$(jq -r .id "$answer")"
+  [ "$(wait_final "$NGINX_URL" "$id" 60)" = succeeded ]
+  call GET "$REPLICA4_URL/v1/jobs/$id/result"
+  expect 200
+  same_answer "$answer" "$(reference 3 "$(body_file 3)")"
+  wait "${sync[@]}"
+  stop_replica 4
+}
+
+local_reads() { curl -sf "$1/metrics" | awk '$1 == "lipmap_local_result_reads_total" {print $2}'; }
+
+@test "The replica that ran a job answers its result from memory, the same bytes; a DELETE elsewhere makes it 410 there too" {
+  local id runner other n before other_before url other_url
+  id="$(submit "$NGINX_URL" "$(body_file 4)")"
+  [ "$(wait_final "$NGINX_URL" "$id" 60)" = succeeded ]
+  long="$id"
+  runner="$(running_replica_of_long)"
+  for n in 1 2 3; do [ "$n" != "$runner" ] && { other="$n"; break; }; done
+  url="REPLICA${runner}_URL" other_url="REPLICA${other}_URL"
+  [ "$(curl -sf "${!url}/metrics" | awk '$1 == "lipmap_local_results" {print $2}')" -ge 1 ]
+  before="$(local_reads "${!url}")" other_before="$(local_reads "${!other_url}")"
+  call GET "${!url}/v1/jobs/$id/result"
+  expect 200
+  [ "$(local_reads "${!url}")" = $((before + 1)) ]
+  cp "$answer" "$BATS_TEST_TMPDIR/from_memory.json"
+  # Another replica reads it from Redis: the same bytes.
+  call GET "${!other_url}/v1/jobs/$id/result"
+  expect 200
+  [ "$(local_reads "${!other_url}")" = "$other_before" ]
+  cmp "$answer" "$BATS_TEST_TMPDIR/from_memory.json"
+  same_answer "$answer" "$(reference 4 "$(body_file 4)")"
+  # Deleted through another replica: the runner's memory does not outlive the job.
+  call DELETE "${!other_url}/v1/jobs/$id"
+  expect 204
+  call GET "${!url}/v1/jobs/$id/result"
+  expect 410 job_gone
+  [ "$(local_reads "${!url}")" = $((before + 1)) ]
+}
