@@ -21,6 +21,7 @@ const char* to_string(MapMethod method) {
   switch (method) {
     case MapMethod::tutte: return "tutte";
     case MapMethod::harmonic: return "harmonic";
+    case MapMethod::extremal: return "extremal";
   }
   return "?";
 }
@@ -317,6 +318,8 @@ Attempt solve_checked(const Solver& solver, const System& s, const Layout& lay, 
   return best;
 }
 
+}  // namespace
+
 // CHOLMOD's supernodal factorization calls BLAS. lipmap runs one job per core, so a multithreaded BLAS
 // only oversubscribes the cores: its threads spin and yield against the other workers (on 2 cores, the
 // disk maps of a 63k-triangle mesh took 3x longer wall time). OpenBLAS is told to use one thread, looked
@@ -328,6 +331,8 @@ void use_single_threaded_blas() {
     if (auto set = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) set(1);
   });
 }
+
+namespace {
 
 using Cholesky = Eigen::CholmodSupernodalLLT<SpMat, Eigen::Lower>;
 using LU = Eigen::UmfPackLU<SpMat>;
@@ -481,7 +486,11 @@ DiskMap run(const DiskMapInput& in, const Layout& lay, Build build, bool fallbac
   out.assemble_ms = assemble_ms;
   out.interior_vertices = static_cast<int>(lay.interior.size());
   out.uv.assign(static_cast<std::size_t>(lay.n), Point2{});
-  for (int k = 0; k < nb; ++k) out.uv[static_cast<std::size_t>(loop[static_cast<std::size_t>(k)])] = disk_boundary_point(k, nb);
+  if (in.boundary_positions && in.boundary_positions->size() != loop.size())
+    throw InternalError("map_to_disk: boundary_positions does not have one point per loop vertex");
+  for (int k = 0; k < nb; ++k)
+    out.uv[static_cast<std::size_t>(loop[static_cast<std::size_t>(k)])] =
+        in.boundary_positions ? (*in.boundary_positions)[static_cast<std::size_t>(k)] : disk_boundary_point(k, nb);
 
   if (lay.interior.empty()) {
     auto t0 = Clock::now();

@@ -63,6 +63,9 @@ struct DiskMapInput {
   const std::vector<Point3>* vertices = nullptr;
   const std::vector<Triangle>* faces = nullptr;       // counterclockwise seen with the interior on the left of the loop
   const std::vector<int>* boundary_loop = nullptr;    // the mesh's boundary loop, interior on the left
+  // Where loop[k] goes; null: disk_boundary_point(k, n). Given, it must be a strictly convex polygon
+  // (counterclockwise) for the positive-weight re-maps to be bijective (method extremal, paper 5.3).
+  const std::vector<Point2>* boundary_positions = nullptr;
 };
 
 struct DiskMap {
@@ -95,9 +98,15 @@ std::vector<Point2> disk_boundary_positions(int n);
 // Maps the mesh onto the unit disk. Preconditions (a validated DiskMesh satisfies them; violations throw
 // InternalError): loop has >= 3 distinct in-range vertices, every other vertex is used by a face, every
 // face index is in range. Throws Cancelled when the token fires.
+// MapMethod::extremal is not a method of this stage alone (engine/convex_domain.h, engine/teichmuller.h);
+// here it builds the harmonic map, its first step.
 DiskMap map_to_disk(const DiskMapInput& input, MapMethod method, const CancelToken* cancel = nullptr);
 
-// ---- Building blocks (reused by the variable-metric stage) ----
+// ---- Building blocks (reused by the variable-metric stage and method extremal) ----
+
+// Tells OpenBLAS (when it is the BLAS) to use one thread, once per process: call before a CHOLMOD
+// supernodal factorization (one engine job runs per core; BLAS threads would only oversubscribe them).
+void use_single_threaded_blas();
 
 // cot of the angle at each corner: result[f][c] is the cotangent of the angle of face f at corner
 // faces[f][c], i.e. dot(e1, e2) / |e1 x e2| with e1, e2 the two edges leaving that corner. Unsigned

@@ -6,10 +6,12 @@
 
 namespace lipmap {
 
-// How the intermediate maps onto the disk are built (paper 4 and 5.1; engine/intermediate_map.h).
-enum class MapMethod { tutte, harmonic };
+// How the intermediate maps are built (paper 4 and 5.1; engine/intermediate_map.h). extremal (paper 5.3):
+// both meshes onto a convex domain instead of the disk, the target conformally (engine/convex_domain.h),
+// the source by an approximate Teichmuller map (engine/teichmuller.h).
+enum class MapMethod { tutte, harmonic, extremal };
 
-const char* to_string(MapMethod method);  // "tutte", "harmonic" (engine/intermediate_map.cpp)
+const char* to_string(MapMethod method);  // "tutte", "harmonic", "extremal" (engine/intermediate_map.cpp)
 
 // The energy the optimize stage lowers (engine/optimize.h): none (the map as refined), mips (the default:
 // tr(J^T J) / det J = K + 1/K, conformal distortion) or symmetric_dirichlet (|J|^2 + |J^-1|^2).

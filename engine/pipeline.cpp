@@ -9,7 +9,9 @@
 #include <string>
 
 #include "engine/compose.h"
+#include "engine/convex_domain.h"
 #include "engine/target_mesh.h"
+#include "engine/teichmuller.h"
 #include "engine/validate.h"
 
 namespace lipmap {
@@ -176,12 +178,36 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
   struct DiskMaps { DiskMap source, target; };
   const DiskMaps disk = run_stage(Stage::intermediate_maps, time.intermediate_maps, cancel, progress, [&] {
     DiskMaps maps;
-    maps.source = map_to_disk({&work_mesh.vertices, &work_mesh.faces, &input.boundary.loop}, options.method, cancel);
-    require_bijective(maps.source, "source mesh");
     std::vector<Point3> planar(target.vertices.size());
     for (std::size_t v = 0; v < planar.size(); ++v) planar[v] = {target.vertices[v].x, target.vertices[v].y, 0};
     std::vector<int> target_loop(work_polygon.vertices.size());
     std::iota(target_loop.begin(), target_loop.end(), 0);
+    if (options.method == MapMethod::extremal) {
+      // Paper 5.3: both onto a convex domain M_c, the target conformally, the source by a Teichmuller map.
+      ConvexDomain domain = map_to_convex_domain({&planar, &target.faces, &target_loop}, cancel);
+      maps.target = std::move(domain.map);
+      require_bijective(maps.target, "target mesh");
+      DiskMapInput source_in{&work_mesh.vertices, &work_mesh.faces, &input.boundary.loop};
+      source_in.boundary_positions = &domain.boundary;
+      TeichmullerMap teich = teichmuller_map(source_in, work_mesh.topology, {}, cancel);
+      maps.source = std::move(teich.map);
+      require_bijective(maps.source, "source mesh");
+      ExtremalReport& e = out.extremal;
+      e.ran = true;
+      e.conformal_boundary = domain.conformal_boundary;
+      e.domain_fallback = domain.fallback;
+      e.closing_change = domain.closing_change;
+      e.scale_factor_range = domain.scale_factor_range;
+      e.k = teich.k;
+      e.iterations = teich.iterations;
+      e.chosen_iteration = teich.chosen_iteration;
+      e.folded_iterates = teich.folded_iterates;
+      e.harmonic_max_dilatation = teich.harmonic_max_dilatation;
+      e.max_dilatation = teich.max_dilatation;
+      return maps;
+    }
+    maps.source = map_to_disk({&work_mesh.vertices, &work_mesh.faces, &input.boundary.loop}, options.method, cancel);
+    require_bijective(maps.source, "source mesh");
     maps.target = map_to_disk({&planar, &target.faces, &target_loop}, options.method, cancel);
     require_bijective(maps.target, "target mesh");
     return maps;
@@ -213,7 +239,12 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
   });
   // Reported as the paper's "flipped before refinement": the composed map's flips, before relocation.
   out.map.flipped_before_refinement = out.relocation.flipped_before;
-  if (options.refine) {
+  if (options.refine && options.method == MapMethod::extremal) {
+    // The optimize stage lowers an average energy (MIPS, symmetric Dirichlet), which would pull the map away
+    // from the extremal one (least worst-case distortion) that method extremal asked for.
+    out.optimization.energy = options.optimize;
+    out.optimization.outcome = "not run: method extremal keeps the extremal map";
+  } else if (options.refine) {
     out.optimization = run_stage(Stage::optimize, time.optimize, cancel, progress, [&] {
       return optimize_map(work_mesh, input.boundary.loop, signed_area(work_polygon.vertices), out.map, options, cancel);
     });

@@ -42,6 +42,20 @@ struct TargetMeshSummary {
   double min_angle_deg = 0;
 };
 
+// Method extremal (paper 5.3): how the convex domain and the Teichmuller map came out.
+struct ExtremalReport {
+  bool ran = false;
+  // h_t->i (engine/convex_domain.h)
+  bool conformal_boundary = false;  // false: the domain fell back to the unit disk positions (why: domain_fallback)
+  std::string domain_fallback;
+  double closing_change = 0;        // largest relative length change that closed the boundary curve
+  double scale_factor_range = 0;    // max - min log scale factor on the boundary
+  // h_s->i (engine/teichmuller.h)
+  double k = 0;                     // |mu| of the chosen iterate's coefficient (0: the harmonic start)
+  int iterations = 0, chosen_iteration = 0, folded_iterates = 0;
+  double harmonic_max_dilatation = 1, max_dilatation = 1;  // max K of h_s->i: harmonic start, answer
+};
+
 struct ParametrizeResult {
   Classification classification;    // verdict, turning number, singular vertices, coarse triangulation
   std::vector<int> boundary_loop;   // boundary vertex loop[k] is pinned to polygon vertex k
@@ -53,6 +67,7 @@ struct ParametrizeResult {
   Relocation relocation;            // flips of the composed map, and the vertices moved to undo some (compose)
   Untangling untangling;            // flips before and after untangling; succeeded: no refinement was needed
   Optimization optimization;        // energy and distortion before optimization (after: `distortion`)
+  ExtremalReport extremal;          // method extremal only (ran: false otherwise)
   int flipped = 0;                  // non-positive uv triangles of the result: 0 whenever refine is on
   StageTimings timings;
 };

@@ -192,6 +192,7 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
     input.gltf_selection = selection;
     if (args.method == "tutte") input.overrides.method = MapMethod::tutte;
     else if (args.method == "harmonic") input.overrides.method = MapMethod::harmonic;
+    else if (args.method == "extremal") input.overrides.method = MapMethod::extremal;
     if (args.no_refine) input.overrides.refine = false;
     if (args.target_density > 0) input.overrides.target_density = args.target_density;
     if (!args.optimize.empty()) {
@@ -330,8 +331,9 @@ int run(int argc, const char* const* argv, std::istream& in, std::ostream& out, 
                         "glTF MESH: none (default) or position (merge vertices with bit-identical POSITION, as glTF "
                         "splits them at seams)")
         ->check(CLI::IsMember({"none", "position"}));
-    map_cmd->add_option("--method", map_args.method, "Intermediate maps: harmonic (default) or tutte")
-        ->check(CLI::IsMember({"tutte", "harmonic"}));
+    map_cmd->add_option("--method", map_args.method,
+                        "Intermediate maps: harmonic (default), tutte, or extremal (paper 5.3: least worst-case distortion)")
+        ->check(CLI::IsMember({"tutte", "harmonic", "extremal"}));
     map_cmd->add_flag("--no-refine", map_args.no_refine,
                       "Only the vertex-wise map: no refinement, so the result may have flipped triangles");
     map_cmd->add_option("--target-density", map_args.target_density,

@@ -24,7 +24,7 @@ int run(int argc, const char* const* argv, std::istream& in, std::ostream& out, 
 // `lipmap classify FILE [--pretty]`: FILE holds a /v1/polygons/classify body; "-" reads it from `in`.
 int classify_command(const std::string& file, bool pretty, std::istream& in, std::ostream& out, std::ostream& err);
 
-// `lipmap map MESH --boundary BOUNDARY.json -o OUT [--method tutte|harmonic] [--no-refine]
+// `lipmap map MESH --boundary BOUNDARY.json -o OUT [--method tutte|harmonic|extremal] [--no-refine]
 //  [--target-density D] [--optimize none|mips|symmetric_dirichlet] [--max-iterations N] [--time-budget-ms MS]
 //  [--no-untangle] [--preview OUT.svg] [--progress] [--pretty]`.
 // MESH is .obj/.off/.ply/.stl (read_mesh_file), or .json holding a whole POST /v1/parametrize body (mesh,
@@ -38,7 +38,7 @@ struct MapArgs {
   std::string mesh_file;
   std::string boundary_file;   // empty: none
   std::string output_file;
-  std::string method;          // empty: not given; else "tutte" or "harmonic"
+  std::string method;          // empty: not given; else "tutte", "harmonic" or "extremal"
   bool no_refine = false;
   double target_density = 0;   // <= 0: not given
   std::string optimize;        // empty: not given; else an OptimizeEnergy name

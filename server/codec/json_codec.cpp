@@ -306,7 +306,8 @@ ParametrizeRequest parametrize_request_from_json(const json& body) {
       const std::string& name = string(*m, at / "method");
       if (name == "tutte") request.options.method = MapMethod::tutte;
       else if (name == "harmonic") request.options.method = MapMethod::harmonic;
-      else fail("invalid_value", "method must be \"tutte\" or \"harmonic\", got " + m->dump(), at / "method");
+      else if (name == "extremal") request.options.method = MapMethod::extremal;
+      else fail("invalid_value", "method must be \"tutte\", \"harmonic\" or \"extremal\", got " + m->dump(), at / "method");
     }
     if (const json* r = optional_member(*o, "refine")) request.options.refine = boolean(*r, at / "refine");
     if (const json* d = optional_member(*o, "target_density")) {
@@ -620,6 +621,19 @@ ordered_json detail::result_json(const lipmap::ParametrizeResult& r, bool big) {
                        {"energy_before", finite_or_null(opt.energy_before)},
                        {"energy_after", finite_or_null(opt.energy_after)},
                        {"distortion_before", opt.ran ? distortion_json(opt.before) : ordered_json(nullptr)}};
+  if (r.extremal.ran) {
+    const ExtremalReport& e = r.extremal;
+    d["extremal"] = {{"conformal_boundary", e.conformal_boundary},
+                     {"domain_fallback", e.domain_fallback},
+                     {"closing_change", finite_or_null(e.closing_change)},
+                     {"scale_factor_range", finite_or_null(e.scale_factor_range)},
+                     {"k", finite_or_null(e.k)},
+                     {"iterations", e.iterations},
+                     {"chosen_iteration", e.chosen_iteration},
+                     {"folded_iterates", e.folded_iterates},
+                     {"harmonic_max_dilatation", finite_or_null(e.harmonic_max_dilatation)},
+                     {"max_dilatation", finite_or_null(e.max_dilatation)}};
+  }
   d["distortion"] = distortion_json(r.distortion);
   const StageTimings& t = r.timings;
   d["timings_ms"] = {{"validate", t.validate},     {"classify", t.classify}, {"target_mesh", t.target_mesh},

@@ -73,7 +73,7 @@ nlohmann::ordered_json classify_request_to_json(const BoundaryPolygon& polygon);
 // ---- POST /v1/parametrize and POST /v1/jobs -------------------------------------------------------------
 // {"mesh": {"vertices": [[x,y,z]...], "faces": [[i,j,k]...]},
 //  "boundary": {"vertices": [i...]?, "positions": [[u,v]...], "rotation_indices": [r...]?},
-//  "options": {"method": "harmonic" (default) | "tutte", "refine": bool, "target_density": number > 0}?}
+//  "options": {"method": "harmonic" (default) | "tutte" | "extremal", "refine": bool, "target_density": number > 0}?}
 // Faces may have any number of corners and indices any integer value here: validate_mesh names those
 // faults (face_not_triangle, face_index_out_of_range) with the engine's codes.
 // The options are the engine's own (engine/parametrize_options.h; harmonic by default).

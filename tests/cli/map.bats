@@ -156,6 +156,18 @@ expect_error() {
   done
 }
 
+@test "--method extremal: nefertiti onto a C shape, schema-valid, diagnostics.extremal, no optimize stage" {
+  # 34 boundary vertices on a thick C (an annular sector of 300 degrees): 17 outer, 17 inner.
+  jq -n '[range(17) | (. / 16 * 5 * 3.141592653589793 / 3 + 0.5236) | [2 * cos, 2 * sin]]
+         + [range(17) | ((16 - .) / 16 * 5 * 3.141592653589793 / 3 + 0.5236) | [cos, sin]] | {positions: .}' >"$T/c.json"
+  lipmap map "$MESHES/nefertiti.off" --boundary "$T/c.json" -o "$T/out.json" --method extremal
+  [ "$status" -eq 0 ] || { echo "$stderr" >&2; return 1; }
+  validates parametrize-answer.schema.json "$T/out.json"
+  [ "$(jq .diagnostics.flipped "$T/out.json")" -eq 0 ]
+  jq -e '.diagnostics.extremal | .iterations >= 1 and .k >= 0 and .k < 1' "$T/out.json" >/dev/null
+  [ "$(jq .diagnostics.optimization.ran "$T/out.json")" = false ]
+}
+
 # ---- errors ---------------------------------------------------------------------------------------------
 
 @test "clockwise boundary: not_self_overlapping, exit 1, names the verdict" {

@@ -1,0 +1,425 @@
+// Method extremal (paper 5.3): the convex domain (engine/convex_domain.h), the Teichmuller map
+// (engine/teichmuller.h) and the whole pipeline with method extremal. Checked with the independent checker
+// (tests/support/map_checker.h), exact orientation from tests/support (triangulation_checker.h) and a
+// conformal distortion computed here from the Jacobian's singular values, never with the engine's own
+// verify or quality.
+//
+//   ExtremalConvexDomain  on every shared disk mesh and on a planar cross mesh: the prescribed curvature is in
+//                         (0, pi) and sums to 2 pi; the boundary is strictly convex (exact); the map is
+//                         flip-free (exact), its boundary the domain's doubles; the boundary turns as prescribed;
+//                         its mean K is below that of the harmonic map onto the unit disk (it is conformal).
+//   ExtremalTeichmuller   an affine boundary gives back the affine map (plane and tilted plane in 3D: the
+//                         frames and the carrying of mu across edges), k = |mu| of the affine map.
+//   ExtremalPipeline      a square grid onto a cross, and shared meshes onto generated targets: every answer
+//                         passes the contract; max K below the plain harmonic map's; interior (2 rings from the
+//                         boundary) max K / mean K reported; the JSON codec reads and writes the method.
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "engine/convex_domain.h"
+#include "engine/pipeline.h"
+#include "engine/teichmuller.h"
+#include "engine/validate.h"
+#include "server/codec/json_codec.h"
+#include "tests/support/grid_cells.h"
+#include "tests/support/pipeline_cases.h"
+#include "tests/support/triangulation_checker.h"
+
+namespace lipmap {
+namespace {
+
+using pipelinecases::LoadedMesh;
+using targetgen::Kind;
+
+constexpr double kPi = 3.14159265358979323846;
+
+// K = sigma1 / sigma2 of one triangle's map from 3D to uv, from the eigenvalues of G^-1 H (first fundamental
+// forms of the 3D and uv triangles in the same edge basis); +inf for a uv triangle that is not positive.
+double face_k(const Point3& a, const Point3& b, const Point3& c, const Point2& ua, const Point2& ub, const Point2& uc) {
+  const long double e1[3] = {b.x - a.x, b.y - a.y, b.z - a.z}, e2[3] = {c.x - a.x, c.y - a.y, c.z - a.z};
+  const long double g11 = e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2], g12 = e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2],
+                    g22 = e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2];
+  const long double u1x = ub.x - ua.x, u1y = ub.y - ua.y, u2x = uc.x - ua.x, u2y = uc.y - ua.y;
+  if (!(u1x * u2y - u1y * u2x > 0)) return INFINITY;
+  const long double h11 = u1x * u1x + u1y * u1y, h12 = u1x * u2x + u1y * u2y, h22 = u2x * u2x + u2y * u2y;
+  const long double det_g = g11 * g22 - g12 * g12;
+  if (!(det_g > 0)) return 1;
+  const long double tr = (g22 * h11 - 2 * g12 * h12 + g11 * h22) / det_g, det = (h11 * h22 - h12 * h12) / det_g;
+  const long double disc = std::sqrt(std::max<long double>(tr * tr / 4 - det, 0));
+  const long double l1 = tr / 2 + disc, l2 = tr / 2 - disc;
+  return l2 > 0 ? static_cast<double>(std::sqrt(l1 / l2)) : INFINITY;
+}
+
+struct KStats {
+  double max = 1, mean = 1;  // over the faces considered, mean weighted by 3D area
+  int faces = 0;
+};
+
+// K over the faces of (vertices, faces, uv) whose corners are all at least `rings` edges from the boundary
+// (rings = 0: every face). Ring distance by breadth-first search from the boundary vertices over the edges.
+KStats k_stats(const std::vector<Point3>& p, const std::vector<Triangle>& faces, const std::vector<Point2>& uv,
+               int rings) {
+  std::vector<int> dist(p.size(), -1);
+  std::vector<std::vector<int>> nbr(p.size());
+  std::map<std::pair<int, int>, int> uses;
+  for (const Triangle& t : faces)
+    for (int c = 0; c < 3; ++c) {
+      const int a = t[c], b = t[(c + 1) % 3];
+      nbr[a].push_back(b);
+      nbr[b].push_back(a);
+      ++uses[{std::min(a, b), std::max(a, b)}];
+    }
+  std::vector<int> queue;
+  for (const auto& [e, n] : uses)
+    if (n == 1)
+      for (int v : {e.first, e.second})
+        if (dist[v] < 0) {
+          dist[v] = 0;
+          queue.push_back(v);
+        }
+  for (std::size_t i = 0; i < queue.size(); ++i)
+    for (int w : nbr[queue[i]])
+      if (dist[w] < 0) {
+        dist[w] = dist[queue[i]] + 1;
+        queue.push_back(w);
+      }
+  KStats s;
+  long double sum = 0, area = 0;
+  for (const Triangle& t : faces) {
+    if (std::min({dist[t[0]], dist[t[1]], dist[t[2]]}) < rings) continue;
+    const double k = face_k(p[t[0]], p[t[1]], p[t[2]], uv[t[0]], uv[t[1]], uv[t[2]]);
+    const Point3 &a = p[t[0]], &b = p[t[1]], &c = p[t[2]];
+    const double e1[3] = {b.x - a.x, b.y - a.y, b.z - a.z}, e2[3] = {c.x - a.x, c.y - a.y, c.z - a.z};
+    const double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2], cz = e1[0] * e2[1] - e1[1] * e2[0];
+    const double w = 0.5 * std::sqrt(cx * cx + cy * cy + cz * cz);
+    s.max = std::max(s.max, k);
+    sum += w * k;
+    area += w;
+    ++s.faces;
+  }
+  s.mean = area > 0 ? static_cast<double>(sum / area) : 1;
+  return s;
+}
+
+bool strictly_convex(const std::vector<Point2>& c) {
+  const std::size_t n = c.size();
+  for (std::size_t j = 0; j < n; ++j) {
+    const Point2 &a = c[(j + n - 1) % n], &b = c[j], &d = c[(j + 1) % n];
+    if (testgen::exact::orient({a.x, a.y}, {b.x, b.y}, {d.x, d.y}) <= 0) return false;
+  }
+  long double turn = 0;
+  for (std::size_t j = 0; j < n; ++j) {
+    const Point2 &a = c[(j + n - 1) % n], &b = c[j], &d = c[(j + 1) % n];
+    turn += std::atan2((long double)(b.x - a.x) * (d.y - b.y) - (long double)(b.y - a.y) * (d.x - b.x),
+                       (long double)(b.x - a.x) * (d.x - b.x) + (long double)(b.y - a.y) * (d.y - b.y));
+  }
+  return std::fabs(static_cast<double>(turn) - 2 * kPi) < 1e-6;
+}
+
+// ---- meshes made here -------------------------------------------------------------------------------------
+
+struct Grid {
+  std::vector<Point3> vertices;
+  std::vector<Triangle> faces;
+  std::vector<int> loop;
+  RawMesh raw() const {
+    RawMesh m;
+    m.vertices = vertices;
+    for (const Triangle& t : faces) m.faces.push_back({t[0], t[1], t[2]});
+    return m;
+  }
+};
+
+// An n x n grid of the unit square (alternating diagonals), through `place` into 3D.
+template <class Place>
+Grid square_grid(int n, Place place) {
+  Grid g;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) g.vertices.push_back(place(double(i) / n, double(j) / n));
+  for (const auto& t : testgen::grid_triangles(n, n, testgen::alternating_diagonal)) g.faces.push_back({t[0], t[1], t[2]});
+  g.loop = pipelinecases::boundary_loop_of(g.faces, g.vertices.size());
+  return g;
+}
+
+Grid flat_square(int n) {
+  return square_grid(n, [](double x, double y) { return Point3{x, y, 0}; });
+}
+
+// The cross (plus sign) of 12 unit edges, counterclockwise from (1, 0).
+const std::vector<Point2>& cross_outline() {
+  static const std::vector<Point2> c = {{1, 0}, {2, 0}, {2, 1}, {3, 1}, {3, 2}, {2, 2},
+                                        {2, 3}, {1, 3}, {1, 2}, {0, 2}, {0, 1}, {1, 1}};
+  return c;
+}
+
+// Loop positions k = 0 .. n-1 at arc length 12 k / n along the cross from (1, 0); n a multiple of 12 puts a
+// loop vertex on every corner of the cross (and the square's corners on four of them).
+std::vector<Point2> cross_positions(std::size_t n) {
+  const std::vector<Point2>& c = cross_outline();
+  std::vector<Point2> out(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const double s = 12.0 * double(k) / double(n);
+    const int e = std::min(11, int(std::floor(s)));
+    const double t = s - e;
+    const Point2 &a = c[e], &b = c[(e + 1) % 12];
+    out[k] = t == 0 ? a : Point2{a.x + t * (b.x - a.x), a.y + t * (b.y - a.y)};
+  }
+  return out;
+}
+
+// A planar mesh of the cross itself: its 5 unit squares as grids of m x m cells (shared vertices merged).
+Grid cross_mesh(int m) {
+  Grid g;
+  std::map<std::pair<int, int>, int> id;  // lattice point (in units of 1/m) -> vertex
+  auto vertex = [&](int x, int y) {
+    auto [it, fresh] = id.try_emplace({x, y}, int(g.vertices.size()));
+    if (fresh) g.vertices.push_back({double(x) / m, double(y) / m, 0});
+    return it->second;
+  };
+  for (auto [cx, cy] : std::vector<std::pair<int, int>>{{1, 0}, {0, 1}, {1, 1}, {2, 1}, {1, 2}})
+    for (int j = 0; j < m; ++j)
+      for (int i = 0; i < m; ++i) {
+        const int x = cx * m + i, y = cy * m + j;
+        const int a = vertex(x, y), b = vertex(x + 1, y), c = vertex(x + 1, y + 1), d = vertex(x, y + 1);
+        if ((i + j) % 2) {
+          g.faces.push_back({a, b, c});
+          g.faces.push_back({a, c, d});
+        } else {
+          g.faces.push_back({a, b, d});
+          g.faces.push_back({b, c, d});
+        }
+      }
+  g.loop = pipelinecases::boundary_loop_of(g.faces, g.vertices.size());
+  return g;
+}
+
+// ---- ExtremalConvexDomain ---------------------------------------------------------------------------------
+
+int domain_cases = 0, domain_lower = 0;
+
+void check_domain(const std::string& name, const std::vector<Point3>& v, const std::vector<Triangle>& f,
+                  const std::vector<int>& loop) {
+  const ConvexDomain d = map_to_convex_domain({&v, &f, &loop});
+  ASSERT_EQ(d.curvature.size(), loop.size()) << name;
+  double sum = 0;
+  for (double k : d.curvature) {
+    EXPECT_GT(k, 0) << name;
+    EXPECT_LT(k, kPi) << name;
+    sum += k;
+  }
+  EXPECT_NEAR(sum, 2 * kPi, 1e-9) << name;
+  EXPECT_TRUE(strictly_convex(d.boundary)) << name;
+  ASSERT_EQ(d.map.uv.size(), v.size()) << name;
+  for (std::size_t k = 0; k < loop.size(); ++k) EXPECT_EQ(d.map.uv[loop[k]], d.boundary[k]) << name << " loop " << k;
+  EXPECT_EQ(pipelinecases::count_folded_by_checker(d.map.uv, f), 0) << name;
+  EXPECT_EQ(d.map.flipped, 0) << name;
+  // The domain's corners turn as prescribed (only the lengths were changed to close the curve).
+  if (d.conformal_boundary) {
+    double worst = 0;
+    const std::size_t n = loop.size();
+    for (std::size_t j = 0; j < n; ++j) {
+      const Point2 &a = d.boundary[(j + n - 1) % n], &b = d.boundary[j], &c = d.boundary[(j + 1) % n];
+      const double turn = std::atan2((b.x - a.x) * (c.y - b.y) - (b.y - a.y) * (c.x - b.x),
+                                     (b.x - a.x) * (c.x - b.x) + (b.y - a.y) * (c.y - b.y));
+      worst = std::max(worst, std::fabs(turn - d.curvature[j]));
+    }
+    EXPECT_LT(worst, 1e-4) << name;
+  }
+  // Conformal: lower mean K than the harmonic map onto the unit disk at evenly spaced angles (when the
+  // conformal boundary was used; the fallback is that disk).
+  const DiskMap disk = map_to_disk({&v, &f, &loop}, MapMethod::harmonic);
+  const double k_domain = pipelinecases::mean_conformal_distortion(v, f, d.map.uv);
+  const double k_disk = pipelinecases::mean_conformal_distortion(v, f, disk.uv);
+  std::printf("[ domain ] %-28s conformal boundary %d%s, closing change %.2e, mean K %.4f (unit disk harmonic %.4f)\n",
+              name.c_str(), int(d.conformal_boundary), d.fallback.empty() ? "" : (" (" + d.fallback + ")").c_str(),
+              d.closing_change, k_domain, k_disk);
+  if (d.conformal_boundary) {
+    ++domain_cases;
+    EXPECT_LE(k_domain, k_disk * (1 + 1e-9)) << name;
+    domain_lower += k_domain < k_disk * (1 - 1e-3);
+  }
+}
+
+TEST(ExtremalConvexDomain, ConvexFlipFreeTurningAsPrescribedAndMoreConformalThanTheDisk) {
+  const Grid cross = cross_mesh(6);
+  check_domain("cross_mesh", cross.vertices, cross.faces, cross.loop);
+  int meshes = 1;
+  for (const testmeshes::MeshEntry& e : testmeshes::disk_meshes()) {
+    if (e.extra || e.triangles > 30000) continue;
+    const LoadedMesh& m = pipelinecases::load(e);
+    check_domain(m.name, m.vertices, m.faces, m.loop);
+    ++meshes;
+  }
+  EXPECT_GE(meshes, 8);
+  // Strictly more conformal (by 0.1 %) on nearly every mesh with a conformal boundary.
+  std::printf("[ domain ] mean K at least 0.1 %% below the unit disk's on %d of %d meshes\n", domain_lower, domain_cases);
+  EXPECT_GE(domain_lower, domain_cases - 2);
+}
+
+TEST(ExtremalConvexDomain, PrescribedCurvatureIsPositiveBelowPiAndSumsToTwoPi) {
+  // Turnings of polygons with reflex corners, spikes and collinear runs (each summing to 2 pi).
+  const std::vector<std::vector<double>> cases = {
+      {kPi / 2, kPi / 2, kPi / 2, kPi / 2},
+      {kPi / 2, -kPi / 2, kPi / 2, kPi / 2, kPi / 2, -kPi / 2, kPi / 2, kPi / 2, kPi / 2, -kPi / 2, kPi / 2, kPi / 2,
+       kPi / 2, -kPi / 2, kPi / 2, kPi / 2},
+      {0.95 * kPi, 0.95 * kPi, 0.1 * kPi},
+      {0, 0, 0, 2 * kPi / 3, 0, 0, 2 * kPi / 3, 0, 2 * kPi / 3},
+  };
+  for (const auto& turning : cases) {
+    const std::vector<double> k = prescribed_curvature(turning);
+    double sum = 0;
+    for (double x : k) {
+      EXPECT_GT(x, 0);
+      EXPECT_LT(x, kPi);
+      sum += x;
+    }
+    EXPECT_NEAR(sum, 2 * kPi, 1e-12);
+  }
+}
+
+// ---- ExtremalTeichmuller ----------------------------------------------------------------------------------
+
+TEST(ExtremalTeichmuller, AnAffineBoundaryGivesTheAffineMapInThePlaneAndTiltedIn3D) {
+  // The affine map (x, y) -> (2 x + 0.5 y, 0.8 y) has constant mu, so it is its own Teichmuller map.
+  const double ux = 2, uy = 0.5, vx = 0, vy = 0.8;
+  const double mu = std::hypot(ux - vy, vx + uy) / std::hypot(ux + vy, vx - uy);
+  // The unit square in the plane z = 0, and the same square rotated into a tilted plane (an isometry: the
+  // map from the square's own coordinates is the same affine map).
+  const double ca = std::cos(0.7), sa = std::sin(0.7), cb = std::cos(1.1), sb = std::sin(1.1);
+  const std::vector<Grid> grids = {
+      flat_square(12), square_grid(12, [&](double x, double y) {
+        // rotate about the x axis by 0.7, then about the z axis by 1.1
+        const double y1 = ca * y, z1 = sa * y;
+        return Point3{cb * x - sb * y1, sb * x + cb * y1, z1};
+      })};
+  for (std::size_t gi = 0; gi < grids.size(); ++gi) {
+    const Grid& g = grids[gi];
+    const Grid flat = flat_square(12);  // the square's own coordinates, vertex by vertex
+    std::vector<Point2> affine(g.vertices.size()), boundary;
+    for (std::size_t v = 0; v < g.vertices.size(); ++v) {
+      const Point3& q = flat.vertices[v];
+      affine[v] = {ux * q.x + uy * q.y, vx * q.x + vy * q.y};
+    }
+    for (int v : g.loop) boundary.push_back(affine[v]);
+    const MeshTopology topology(static_cast<int>(g.vertices.size()), g.faces);
+    DiskMapInput in{&g.vertices, &g.faces, &g.loop};
+    in.boundary_positions = &boundary;
+    const TeichmullerMap t = teichmuller_map(in, topology);
+    const std::string where = gi == 0 ? "plane" : "tilted";
+    EXPECT_EQ(t.map.flipped, 0) << where;
+    // The harmonic start is the affine map already; every Beltrami solve prescribes its |mu| and gives it back.
+    EXPECT_GE(t.iterations, 1) << where;
+    for (double k : t.k_history) EXPECT_NEAR(k, mu, 1e-6) << where;
+    double err = 0;
+    for (std::size_t v = 0; v < affine.size(); ++v)
+      err = std::max(err, std::hypot(t.map.uv[v].x - affine[v].x, t.map.uv[v].y - affine[v].y));
+    EXPECT_LT(err, 1e-8) << where;
+    EXPECT_NEAR(t.max_dilatation, (1 + mu) / (1 - mu), 1e-6) << where;
+  }
+}
+
+// ---- ExtremalPipeline -------------------------------------------------------------------------------------
+
+ParametrizeResult run(const RawMesh& mesh, const std::vector<Point2>& positions, MapMethod method,
+                      const std::optional<std::vector<int>>& rotation = std::nullopt) {
+  RawBoundary b;
+  b.positions = positions;
+  if (rotation) b.rotation_indices = std::vector<long long>(rotation->begin(), rotation->end());
+  ParametrizeOptions o;
+  o.method = method;
+  o.optimize = OptimizeEnergy::none;  // the maps as the methods make them
+  return parametrize(mesh, b, o);
+}
+
+struct Comparison {
+  KStats extremal_all, harmonic_all, extremal_inner, harmonic_inner;
+};
+
+Comparison compare(const std::string& name, const mapcheck::SourceMesh& src, const RawMesh& raw,
+                   const std::vector<Point2>& positions, const std::optional<std::vector<int>>& rotation) {
+  Comparison c;
+  const ParametrizeResult e = run(raw, positions, MapMethod::extremal, rotation);
+  const ParametrizeResult h = run(raw, positions, MapMethod::harmonic, rotation);
+  for (const ParametrizeResult* r : {&e, &h}) {
+    mapcheck::Result res{r->map.vertices, r->map.faces, r->map.uv, {}};
+    for (const InsertedVertex& v : r->map.inserted) res.inserted.push_back({v.a, v.b, v.t});
+    const mapcheck::Report rep = mapcheck::check_map(src, positions, res, rotation ? &*rotation : nullptr);
+    EXPECT_TRUE(rep.ok()) << name << (r == &e ? " extremal" : " harmonic") << "\n" << rep.str();
+  }
+  EXPECT_TRUE(e.extremal.ran) << name;
+  EXPECT_FALSE(h.extremal.ran) << name;
+  c.extremal_all = k_stats(e.map.vertices, e.map.faces, e.map.uv, 0);
+  c.harmonic_all = k_stats(h.map.vertices, h.map.faces, h.map.uv, 0);
+  c.extremal_inner = k_stats(e.map.vertices, e.map.faces, e.map.uv, 2);
+  c.harmonic_inner = k_stats(h.map.vertices, h.map.faces, h.map.uv, 2);
+  std::printf("[ extremal ] %-34s max K %.3f (harmonic %.3f); 2 rings in: max/mean %.3f / %.3f = %.3f (harmonic "
+              "%.3f / %.3f = %.3f); k %.3f after %d/%d solves, %zu inserted (harmonic %zu)%s\n",
+              name.c_str(), c.extremal_all.max, c.harmonic_all.max, c.extremal_inner.max, c.extremal_inner.mean,
+              c.extremal_inner.max / c.extremal_inner.mean, c.harmonic_inner.max, c.harmonic_inner.mean,
+              c.harmonic_inner.max / c.harmonic_inner.mean, e.extremal.k, e.extremal.chosen_iteration,
+              e.extremal.iterations, e.map.inserted.size(), h.map.inserted.size(),
+              e.extremal.conformal_boundary ? "" : (" [disk: " + e.extremal.domain_fallback + "]").c_str());
+  return c;
+}
+
+TEST(ExtremalPipeline, SquareGridOntoACross) {
+  for (int n : {12, 24}) {
+    const Grid g = flat_square(n);
+    const std::vector<Point2> positions = cross_positions(g.loop.size());
+    const Comparison c = compare("square " + std::to_string(n) + " -> cross", {g.vertices, g.faces, g.loop}, g.raw(),
+                                 positions, std::nullopt);
+    EXPECT_LT(c.extremal_all.max, c.harmonic_all.max) << n;
+    EXPECT_LT(c.extremal_inner.max / c.extremal_inner.mean, c.harmonic_inner.max / c.harmonic_inner.mean) << n;
+  }
+}
+
+TEST(ExtremalPipeline, SharedMeshesOntoGeneratedTargetsPassTheContract) {
+  int cases = 0, lower_max = 0;
+  for (const testmeshes::MeshEntry& entry : testmeshes::disk_meshes()) {
+    if (entry.extra || entry.long_boundary || entry.triangles > 20000) continue;
+    const LoadedMesh& m = pipelinecases::load(entry);
+    for (Kind kind : {Kind::circle, Kind::c_shape, Kind::exp_strip, Kind::weak_fan}) {
+      const auto t = targetgen::make_target(kind, pipelinecases::ref(m));
+      if (!t) continue;
+      const std::string name = m.name + " / " + targetgen::kind_name(kind);
+      const Comparison c = compare(name, {m.vertices, m.faces, m.loop}, m.raw, t->positions, t->rotation_indices);
+      ++cases;
+      lower_max += c.extremal_all.max < c.harmonic_all.max;
+    }
+  }
+  std::printf("[ extremal ] max K below the harmonic map's in %d of %d cases\n", lower_max, cases);
+  EXPECT_GE(cases, 20);
+}
+
+TEST(ExtremalPipeline, TheJsonCodecReadsTheMethodAndWritesItsDiagnostics) {
+  const Grid g = flat_square(6);
+  nlohmann::json body;
+  for (const Point3& p : g.vertices) body["mesh"]["vertices"].push_back({p.x, p.y, p.z});
+  for (const Triangle& t : g.faces) body["mesh"]["faces"].push_back({t[0], t[1], t[2]});
+  for (const Point2& p : cross_positions(g.loop.size())) body["boundary"]["positions"].push_back({p.x, p.y});
+  body["options"]["method"] = "extremal";
+  const codec::ParametrizeRequest request = codec::parametrize_request_from_json(body);
+  ASSERT_EQ(request.options.method, MapMethod::extremal);
+  const ParametrizeResult r = parametrize(request.mesh, request.boundary, request.options);
+  const nlohmann::ordered_json answer = codec::parametrize_result_to_json(r);
+  ASSERT_TRUE(answer["diagnostics"].contains("extremal"));
+  EXPECT_TRUE(answer["diagnostics"]["extremal"]["iterations"].get<int>() >= 1);
+  EXPECT_FALSE(answer["diagnostics"]["optimization"]["ran"].get<bool>());
+  body["options"]["method"] = "teichmuller";
+  try {
+    (void)codec::parametrize_request_from_json(body);
+    ADD_FAILURE() << "an unknown method was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("extremal"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace lipmap
