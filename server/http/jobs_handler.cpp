@@ -167,7 +167,7 @@ Answer cluster_post_job(Service& service, const httplib::Request& req) {
     if (!req.has_param(name)) return std::nullopt;
     return req.get_param_value(name);
   };
-  stored.params = gltf::Params{param("mesh"), param("primitive"), param("weld"), param("boundary")};
+  stored.params = gltf::Params{param("mesh"), param("primitive"), param("weld"), param("boundary"), param("metric")};
   const TestHooks hooks = service.hooks_of(req);
   const auto deadline = std::chrono::system_clock::now() +
                         std::chrono::duration_cast<std::chrono::system_clock::duration>(
