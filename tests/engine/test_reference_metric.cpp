@@ -8,9 +8,14 @@
 //                           T's boundary as the polygon, comes back as T bit for bit (tolerance 0) with nothing
 //                           inserted, on every shared disk mesh x target kind. T is the target's certificate
 //                           (g o Tutte, on the source mesh) when it has one, else the pipeline's own answer
-//                           (on its refined mesh when it inserted vertices).
+//                           (on its refined mesh when it inserted vertices; meshes up to 10k triangles only, to
+//                           keep the run short: the certificates cover the larger ones).
 //   MetricRepair            UV repair: locally injective maps with 1 to 50 flips injected (interior vertices
-//                           pushed across a neighbour), 3 seeds, every shared disk mesh up to 30k triangles:
+//                           pushed across a neighbour), 2 seeds, every shared disk mesh up to 10k triangles, the
+//                           reference maps being the certificates g o Tutte that live on the source mesh (up to
+//                           two kinds per mesh). Not the pipeline's own answers: with optimize none those ARE the
+//                           plain harmonic map, so the comparison below would only measure the injected pushes
+//                           (bench/bench_metric shows them, ratio about 2 to 10):
 //                           every answer passes the contract, and its mean distance to T is at most half that
 //                           of the plain harmonic answer (metric "surface", optimize none, same boundary) in
 //                           >= 90% of the cases.
@@ -155,9 +160,12 @@ mapcheck::Report check(const Reference& ref, const ParametrizeResult& r) {
 }
 
 // A locally injective map of the mesh (or of the pipeline's refined mesh) with the target's boundary.
-std::optional<Reference> reference_map(const LoadedMesh& m, Kind kind, std::string* why) {
+std::optional<Reference> reference_map(const LoadedMesh& m, Kind kind, std::string* why, bool certificate_only = false,
+                                       long long max_pipeline_triangles = 10000) {
   const auto t = targetgen::make_target(kind, pipelinecases::ref(m), why);
   if (!t) return std::nullopt;
+  if (!t->certificate_on_source && (certificate_only || static_cast<long long>(m.faces.size()) > max_pipeline_triangles))
+    return std::nullopt;
   Reference r;
   r.where = m.name + " / " + targetgen::kind_name(kind);
   r.rotation = t->rotation_indices;
@@ -235,20 +243,19 @@ TEST(MetricRepair, FlippedReferenceMapsAreRepairedCloseToThem) {
   std::string report;
   int kind_turn = 0;
   for (const testmeshes::MeshEntry& e : testmeshes::disk_meshes()) {
-    if (e.extra || e.triangles > 30000) continue;
+    if (e.extra || e.triangles > 10000) continue;
     const LoadedMesh& m = pipelinecases::load(e);
-    // One reference map per mesh, the kinds taken in turn over the meshes (weak_fan's prescribed rotation
-    // indices left out: the plain answer is compared on the same polygon only).
-    std::optional<Reference> ref;
-    const std::vector<Kind> kinds = {Kind::exp_strip, Kind::circle, Kind::power_map, Kind::c_shape,
-                                     Kind::cubic_map, Kind::spiral_arm, Kind::bent_strip};
-    for (std::size_t i = 0; i < kinds.size() && !ref; ++i) ref = reference_map(m, kinds[(kind_turn + i) % kinds.size()], nullptr);
-    ++kind_turn;
+    // Up to two reference maps per mesh, the kinds taken in turn over the meshes.
+    const std::vector<Kind> kinds = {Kind::exp_strip, Kind::power_map, Kind::cubic_map, Kind::bent_strip};
+    int taken = 0;
+    for (std::size_t i = 0; i < kinds.size() && taken < 2; ++i) {
+    const std::optional<Reference> ref = reference_map(m, kinds[(kind_turn + i) % kinds.size()], nullptr, true);
     if (!ref) continue;
+    ++taken;
     ParametrizeOptions plain_options;
     plain_options.optimize = OptimizeEnergy::none;
     const ParametrizeResult plain = parametrize(ref->mesh, boundary_of(*ref), plain_options);
-    for (unsigned seed = 1; seed <= 3; ++seed) {
+    for (unsigned seed = 1; seed <= 2; ++seed) {
       std::vector<Point2> T = ref->T;
       const int want = 1 + static_cast<int>((seed * 2654435761u + static_cast<unsigned>(cases)) % 50);
       const int folded = flipinject::inject_flips(T, ref->faces, ref->loop, want, 50, seed);
@@ -280,11 +287,13 @@ TEST(MetricRepair, FlippedReferenceMapsAreRepairedCloseToThem) {
                     where.c_str(), r.metric.path.c_str(), r.map.inserted.size(), ours, theirs, ratio);
       report += line;
     }
+    }
+    ++kind_turn;
   }
   std::sort(ratios.begin(), ratios.end());
   std::printf("[ metric ] %d repair cases, %d with ratio <= 0.5, %d without insertion, median ratio %.3f\n%s", cases,
               closer, no_insertion, ratios.empty() ? 0.0 : ratios[ratios.size() / 2], report.c_str());
-  ASSERT_GE(cases, 20);
+  ASSERT_GE(cases, 12);
   EXPECT_GE(closer * 10, cases * 9) << report;
 }
 
