@@ -27,7 +27,8 @@ bool parse_optimize_energy(const std::string& name, OptimizeEnergy& out) {
 }
 
 Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, double uv_area, RefinedMap& map,
-                          const ParametrizeOptions& options, const CancelToken* cancel) {
+                          const ParametrizeOptions& options, const CancelToken* cancel,
+                          const std::vector<Point3>* rest) {
   const auto start = std::chrono::steady_clock::now();
   Optimization out;
   out.energy = options.optimize;
@@ -56,8 +57,9 @@ Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, 
       for (int v : source.faces[f]) pinned[v] = 1;
     }
   }
-  out.before = conformal_distortion(map.vertices, map.faces, map.uv);
-  detail::UvDescent descent(map.vertices, map.faces, pinned, uv_area);
+  const std::vector<Point3>& shape = rest ? *rest : map.vertices;
+  out.before = conformal_distortion(shape, map.faces, map.uv);
+  detail::UvDescent descent(shape, map.faces, pinned, uv_area);
   out.free_vertices = descent.free_vertices();
   detail::DescentSettings s;
   s.energy = options.optimize == OptimizeEnergy::mips ? detail::UvEnergy::mips : detail::UvEnergy::symmetric_dirichlet;
@@ -77,7 +79,7 @@ Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, 
   out.ran = true;
   // MIPS lowers the mean of K + 1/K; the mean of K itself could, in principle, rise a little (seen: 4.4614 ->
   // 4.4627 on a C-shaped target). The stage promises lower conformal distortion, so it keeps the start then.
-  if (conformal_distortion(map.vertices, map.faces, map.uv).mean > out.before.mean) {
+  if (conformal_distortion(shape, map.faces, map.uv).mean > out.before.mean) {
     map.uv = start_uv;
     out.iterations = 0;
     out.energy_before = out.energy_after = r.energy_before;

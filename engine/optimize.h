@@ -37,8 +37,11 @@ struct Optimization {
 
 // map: a refined map at the working scale with every face strictly positive; its uv is changed in place.
 // loop: the source boundary loop; source: the validated source mesh (its topology locates inserted
-// vertices' faces). Throws Cancelled.
+// vertices' faces). rest: the rest shapes, one point per vertex of map (a reference metric's: the energy and
+// the distortion it promises to lower are then measured against T's triangles, so the map moves towards T's
+// shape); null for map.vertices (the surface). Throws Cancelled.
 Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, double uv_area, RefinedMap& map,
-                          const ParametrizeOptions& options, const CancelToken* cancel = nullptr);
+                          const ParametrizeOptions& options, const CancelToken* cancel = nullptr,
+                          const std::vector<Point3>* rest = nullptr);
 
 }  // namespace lipmap

@@ -2,7 +2,11 @@
 // than redefine them: engine/pipeline.h and engine/intermediate_map.h pull in Eigen and OpenMesh.
 #pragma once
 
+#include <optional>
 #include <string>
+#include <vector>
+
+#include "engine/geometry.h"
 
 namespace lipmap {
 
@@ -32,6 +36,10 @@ struct ParametrizeOptions {
   OptimizeEnergy optimize = OptimizeEnergy::mips;
   int max_iterations = 200;     // optimization steps, at most; 0 turns optimization off
   double time_budget_ms = 0;    // wall time of the optimize stage, at most; 0: no budget (max_iterations only)
+  // The metric of the source's harmonic map (paper 5.2, engine/reference_metric.h): none for the surface's
+  // own (3D) metric; else a reference map T, one uv per source vertex, whose edge lengths |T(a) - T(b)| are
+  // the metric. A locally injective T with T's boundary as the polygon comes back as T itself.
+  std::optional<std::vector<Point2>> metric;
 };
 
 }  // namespace lipmap

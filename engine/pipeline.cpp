@@ -10,6 +10,8 @@
 
 #include "engine/compose.h"
 #include "engine/convex_domain.h"
+#include "engine/flip_check.h"
+#include "engine/reference_metric.h"
 #include "engine/target_mesh.h"
 #include "engine/teichmuller.h"
 #include "engine/validate.h"
@@ -162,9 +164,116 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
   BoundaryPolygon work_polygon = out.polygon;
   for (Point2& p : work_polygon.vertices) p = scaled(p, -polygon_k);
 
+  std::optional<ReferenceMetric> metric;  // paper 5.2, when options.metric gives a reference map (below)
+
+  // The stages after refinement, shared by every path: optimize, back to the caller's scale, verify, quality.
+  auto finish = [&]() {
+    if (options.refine && !out.metric.reproduced && options.method == MapMethod::extremal) {
+      // The optimize stage lowers an average energy (MIPS, symmetric Dirichlet), which would pull the map away
+      // from the extremal one (least worst-case distortion) that method extremal asked for.
+      out.optimization.energy = options.optimize;
+      out.optimization.outcome = "not run: method extremal keeps the extremal map";
+    } else if (options.refine && !out.metric.reproduced) {
+      // With a metric the rest shapes are T's triangles (inserted vertices at T's lerp along their edge), so
+      // the default optimization lowers the distortion relative to T: it moves the answer towards T's shape.
+      std::vector<Point3> rest_r;
+      if (metric) {
+        rest_r = metric->rest;
+        for (const InsertedVertex& iv : out.map.inserted) {
+          const Point3 &a = metric->rest[iv.a], &b = metric->rest[iv.b];
+          rest_r.push_back({a.x + iv.t * (b.x - a.x), a.y + iv.t * (b.y - a.y), 0});
+        }
+      }
+      out.optimization = run_stage(Stage::optimize, time.optimize, cancel, progress, [&] {
+        return optimize_map(work_mesh, input.boundary.loop, signed_area(work_polygon.vertices), out.map, options, cancel,
+                            metric ? &rest_r : nullptr);
+      });
+    } else if (out.metric.reproduced) {
+      out.optimization.outcome = "not needed: the answer is the reference map itself (every triangle at its rest shape)";
+    }
+    // Quality is scale-invariant: measured at the working scale, where areas neither overflow nor underflow.
+    // (Copies only when a scale applies: otherwise to_caller_scale leaves the values as they are.)
+    const bool rescaled = mesh_k != 0 || polygon_k != 0;
+    std::vector<Point3> work_vertices;
+    std::vector<Point2> work_uv;
+    if (rescaled) {
+      work_vertices = out.map.vertices;
+      work_uv = out.map.uv;
+    }
+    to_caller_scale(out.map, input.mesh, input.boundary.loop, out.polygon, polygon_k);
+    out.flipped = count_non_positive(out.map.uv, out.map.faces);
+
+    if (options.refine) {
+      run_stage(Stage::verify, time.verify, cancel, progress, [&] {
+        return verify_map(input.mesh, input.boundary.loop, out.polygon, out.classification.rotation_indices, out.map);
+      });
+    }
+    out.distortion = run_stage(Stage::quality, time.quality, cancel, progress,
+                               [&] {
+      return conformal_distortion(rescaled ? work_vertices : out.map.vertices, out.map.faces,
+                                  rescaled ? work_uv : out.map.uv);
+    });
+    if (metric) out.metric.distance = distance_to_reference(out.map.uv, *options.metric, out.polygon);
+    time.total = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+  };
+
   out.classification = run_stage(Stage::classify, time.classify, cancel, progress,
                                  [&] { return classify(work_polygon, cancel); });
   if (out.classification.verdict == Verdict::not_self_overlapping) throw NotSelfOverlapping(out.classification);
+
+  // Paper 5.2: a reference map T's metric. A locally injective T (or T with its boundary moved onto the
+  // polygon) is the answer itself: the paper's reproduction property (h = T), taken literally rather than
+  // recomputed, since solving again could only add rounding. Else T is untangled with T's triangles as rest
+  // shapes; only when that fails does the usual pipeline run, with h_s built in T's metric.
+  if (options.metric) {
+    check_cancel(cancel);
+    const auto t0 = Clock::now();
+    std::vector<Point2> reference = *options.metric;
+    if (reference.size() == work_mesh.vertices.size())
+      for (Point2& p : reference) p = scaled(p, -polygon_k);
+    metric = reference_metric(work_mesh, reference);
+    out.metric.given = true;
+    out.metric.reference_flipped = metric->flipped;
+    out.metric.corrected_faces = metric->corrected;
+    for (std::size_t k = 0; k < input.boundary.loop.size(); ++k) reference[input.boundary.loop[k]] = work_polygon.vertices[k];
+    time.intermediate_maps += std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    const std::vector<int>& rotation = out.classification.rotation_indices;
+    RefinedMap candidate;
+    candidate.vertices = work_mesh.vertices;
+    candidate.faces = work_mesh.faces;
+    const bool valid = run_stage(Stage::verify, time.verify, cancel, progress, [&] {
+      if (count_non_positive(reference, work_mesh.faces) > 0) return false;
+      candidate.uv = reference;
+      try {
+        verify_map(work_mesh, input.boundary.loop, work_polygon, rotation, candidate);
+      } catch (const InternalError&) {
+        return false;
+      }
+      return true;
+    });
+    if (valid) {
+      out.map = std::move(candidate);
+      out.metric.path = "reference";
+      out.metric.reproduced = true;
+      for (std::size_t k = 0; k < input.boundary.loop.size() && out.metric.reproduced; ++k)
+        out.metric.reproduced = (*options.metric)[input.boundary.loop[k]] == out.polygon.vertices[k];
+      finish();
+      return out;
+    }
+    if (options.refine && options.untangle) {
+      out.untangling = run_stage(Stage::untangle, time.untangle, cancel, progress, [&] {
+        return untangle(work_mesh, input.boundary.loop, work_polygon, rotation, reference, cancel, &metric->rest);
+      });
+      if (out.untangling.succeeded) {
+        candidate.uv = std::move(out.untangling.uv);
+        out.map = std::move(candidate);
+        out.metric.path = "untangled";
+        finish();
+      return out;
+      }
+    }
+    out.metric.path = "composed";
+  }
 
   const TargetMesh target = run_stage(Stage::target_mesh, time.target_mesh, cancel, progress, [&] {
     TargetMeshOptions mesher;
@@ -206,7 +315,15 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
       e.max_dilatation = teich.max_dilatation;
       return maps;
     }
-    maps.source = map_to_disk({&work_mesh.vertices, &work_mesh.faces, &input.boundary.loop}, options.method, cancel);
+    const DiskMapInput source_input{&work_mesh.vertices, &work_mesh.faces, &input.boundary.loop};
+    // Paper 5.2: h_s's cotangent weights from T's edge lengths (Tutte's uniform weights have no metric).
+    if (metric && options.method == MapMethod::harmonic)
+      maps.source = map_to_disk_with_laplacian(
+          source_input,
+          laplacian_from_cotangents(static_cast<int>(work_mesh.vertices.size()), work_mesh.faces, metric->cotangents),
+          true, cancel);
+    else
+      maps.source = map_to_disk(source_input, options.method, cancel);
     require_bijective(maps.source, "source mesh");
     maps.target = map_to_disk({&planar, &target.faces, &target_loop}, options.method, cancel);
     require_bijective(maps.target, "target mesh");
@@ -227,7 +344,7 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
   if (options.refine && options.untangle) {
     out.untangling = run_stage(Stage::untangle, time.untangle, cancel, progress, [&] {
       return untangle(work_mesh, input.boundary.loop, work_polygon, out.classification.rotation_indices,
-                      composition.uv, cancel);
+                      composition.uv, cancel, metric ? &metric->rest : nullptr);
     });
   }
   out.map = run_stage(Stage::refine, time.refine, cancel, progress, [&] {
@@ -239,39 +356,7 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
   });
   // Reported as the paper's "flipped before refinement": the composed map's flips, before relocation.
   out.map.flipped_before_refinement = out.relocation.flipped_before;
-  if (options.refine && options.method == MapMethod::extremal) {
-    // The optimize stage lowers an average energy (MIPS, symmetric Dirichlet), which would pull the map away
-    // from the extremal one (least worst-case distortion) that method extremal asked for.
-    out.optimization.energy = options.optimize;
-    out.optimization.outcome = "not run: method extremal keeps the extremal map";
-  } else if (options.refine) {
-    out.optimization = run_stage(Stage::optimize, time.optimize, cancel, progress, [&] {
-      return optimize_map(work_mesh, input.boundary.loop, signed_area(work_polygon.vertices), out.map, options, cancel);
-    });
-  }
-  // Quality is scale-invariant: measured at the working scale, where areas neither overflow nor underflow.
-  // (Copies only when a scale applies: otherwise to_caller_scale leaves the values as they are.)
-  const bool rescaled = mesh_k != 0 || polygon_k != 0;
-  std::vector<Point3> work_vertices;
-  std::vector<Point2> work_uv;
-  if (rescaled) {
-    work_vertices = out.map.vertices;
-    work_uv = out.map.uv;
-  }
-  to_caller_scale(out.map, input.mesh, input.boundary.loop, out.polygon, polygon_k);
-  out.flipped = count_non_positive(out.map.uv, out.map.faces);
-
-  if (options.refine) {
-    run_stage(Stage::verify, time.verify, cancel, progress, [&] {
-      return verify_map(input.mesh, input.boundary.loop, out.polygon, out.classification.rotation_indices, out.map);
-    });
-  }
-  out.distortion = run_stage(Stage::quality, time.quality, cancel, progress,
-                             [&] {
-    return conformal_distortion(rescaled ? work_vertices : out.map.vertices, out.map.faces,
-                                rescaled ? work_uv : out.map.uv);
-  });
-  time.total = std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+  finish();
   return out;
 }
 

@@ -16,6 +16,7 @@
 #include "engine/optimize.h"
 #include "engine/parametrize_options.h"
 #include "engine/quality.h"
+#include "engine/reference_metric.h"
 #include "engine/refine.h"
 #include "engine/relocate.h"
 #include "engine/untangle.h"
@@ -68,6 +69,7 @@ struct ParametrizeResult {
   Untangling untangling;            // flips before and after untangling; succeeded: no refinement was needed
   Optimization optimization;        // energy and distortion before optimization (after: `distortion`)
   ExtremalReport extremal;          // method extremal only (ran: false otherwise)
+  MetricReport metric;              // options.metric (paper 5.2): the path taken, T's flips, distance to T
   int flipped = 0;                  // non-positive uv triangles of the result: 0 whenever refine is on
   StageTimings timings;
 };
@@ -85,6 +87,10 @@ private:
   Classification classification_;
 };
 
+// With options.metric (paper 5.2, engine/reference_metric.h), after classify: a locally injective reference map
+// T whose boundary is the polygon is returned as it is (no insertion); else T is untangled with T's triangles
+// as rest shapes; else the stages above run with h_s in T's metric (refinement keeps paper 4's guarantee).
+// Optimization then measures distortion against T's triangles.
 // Throws InputError (validation, options, NotSelfOverlapping), Cancelled, or InternalError when a result
 // fails verify (never returned).
 ParametrizeResult parametrize(const RawMesh& mesh, const RawBoundary& boundary, const ParametrizeOptions& options,

@@ -30,7 +30,7 @@ double shoelace(const std::vector<Point2>& p) {
 
 Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const BoundaryPolygon& polygon,
                     const std::vector<int>& rotation, const std::vector<Point2>& composed_uv,
-                    const CancelToken* cancel) {
+                    const CancelToken* cancel, const std::vector<Point3>* rest) {
   Untangling out;
   out.flipped_before = out.flipped_after = count_non_positive(composed_uv, source.faces);
   if (out.flipped_before == 0) {
@@ -46,7 +46,7 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
       out.outcome = "not attempted: a face with three boundary corners is not positive";
       return out;
     }
-  detail::UvDescent descent(source.vertices, source.faces, pinned, shoelace(polygon.vertices));
+  detail::UvDescent descent(rest ? *rest : source.vertices, source.faces, pinned, shoelace(polygon.vertices));
   if (descent.free_vertices() == 0) {
     out.outcome = "not attempted: no interior vertex";
     return out;

@@ -37,9 +37,10 @@ struct Untangling {
 };
 
 // composed_uv: the vertex-wise map after relocation, boundary vertex loop[k] at polygon.vertices[k].
-// rotation: the classification's R_k. Throws Cancelled.
+// rotation: the classification's R_k. rest: the triangles' rest shapes, one point per source vertex (a
+// reference metric's, engine/reference_metric.h); null for the 3D mesh itself. Throws Cancelled.
 Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const BoundaryPolygon& polygon,
                     const std::vector<int>& rotation, const std::vector<Point2>& composed_uv,
-                    const CancelToken* cancel = nullptr);
+                    const CancelToken* cancel = nullptr, const std::vector<Point3>* rest = nullptr);
 
 }  // namespace lipmap

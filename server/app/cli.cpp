@@ -127,12 +127,15 @@ std::string lower_extension(const std::string& path) {
 // An InputError about the boundary, when the boundary came from its own file: "/boundary/positions/3" ->
 // "/positions/3" in that file.
 std::string map_error_location(const InputError& e, bool boundary_from_file, const std::string& boundary_file,
-                               bool mesh_from_json, const std::string& mesh_file) {
+                               bool mesh_from_json, const std::string& mesh_file, bool metric_from_file,
+                               const std::string& metric_file) {
   const std::optional<std::string> pointer = codec::parametrize_error_pointer(e);
   if (!pointer || pointer->empty()) return {};
   const std::string prefix = "/boundary";
   if (boundary_from_file && pointer->compare(0, prefix.size(), prefix) == 0)
     return boundary_file + ": " + pointer->substr(prefix.size()) + ": ";
+  if (metric_from_file && pointer->compare(0, 15, "/options/metric") == 0)
+    return metric_file + ": " + pointer->substr(15) + ": ";
   if (mesh_from_json) return mesh_file + ": " + *pointer + ": ";
   return {};  // a mesh file: the engine's message names the vertex, face or edge
 }
@@ -185,6 +188,10 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
     input.file = args.mesh_file;
     input.read_file = [](const std::string& file) { return read_all(file, std::cin); };
     input.boundary_file = args.boundary_file;
+    // --metric texcoord:N reads the reference map from the glTF primitive: a usage error without glTF.
+    if (gltf::parse_texcoord_spec(args.metric) && !gltf::format_from_path(args.mesh_file))
+      throw MapFailure("usage", "--metric texcoord:N needs a .glb or .gltf MESH");
+    input.metric_file = args.metric;
     gltf::Selection selection;
     selection.mesh = args.gltf_mesh;
     selection.primitive = args.gltf_primitive;
@@ -243,7 +250,10 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
       throw;
     } catch (const InputError& e) {
       throw MapFailure(e.code(),
-                       map_error_location(e, boundary_from_file, args.boundary_file, mesh_from_json, args.mesh_file) +
+                       map_error_location(e, boundary_from_file, args.boundary_file, mesh_from_json, args.mesh_file,
+                                          !args.metric.empty() && args.metric != "surface" &&
+                                              !gltf::parse_texcoord_spec(args.metric),
+                                          args.metric) +
                            e.what());
     }
 
@@ -351,6 +361,11 @@ int run(int argc, const char* const* argv, std::istream& in, std::ostream& out, 
         ->check(CLI::NonNegativeNumber);
     map_cmd->add_flag("--no-untangle", map_args.no_untangle,
                       "Refine whenever the composed map folds, without trying to untangle the unrefined mesh first");
+    map_cmd->add_option("--metric", map_args.metric,
+                        "The metric of the map (paper 5.2): surface (default), texcoord:N (glTF MESH: TEXCOORD_N as "
+                        "the reference map; with --boundary texcoord:N, repair that chart's flips), or METRIC.json "
+                        "holding \"surface\" or {\"uv\": [[u, v]...]} (one per vertex). A locally injective "
+                        "reference map with the same boundary comes back unchanged");
     map_cmd->add_option("--preview", map_args.preview_file,
                         "Also write an SVG picture of the uv map (distortion colours, flips in red, target outline)");
     map_cmd->add_flag("--progress", map_args.progress, "Print each stage and a summary on standard error");

@@ -45,6 +45,9 @@ struct MapArgs {
   int max_iterations = -1;     // < 0: not given
   double time_budget_ms = -1;  // < 0: not given
   bool no_untangle = false;
+  // --metric: empty (the request's own), "surface", texcoord:N (glTF MESH) or METRIC.json ("surface" or
+  // {"uv": [[u, v]...]}, one per vertex: paper 5.2, the reference map whose metric the map is built in).
+  std::string metric;
   std::string preview_file;    // empty: none
   bool progress = false;
   bool pretty = false;

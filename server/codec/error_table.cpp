@@ -75,6 +75,11 @@ const std::vector<ErrorInfo> kTable = {
     {"rotation_index_out_of_range", 422, kInvalidBoundary, kIn},
     {"not_self_overlapping", 422, "Boundary not self-overlapping", kIn},
 
+    // ---- options.metric, the reference map of the variable metric (paper 5.2): 422 ----------------------
+    {"metric_length_mismatch", 422, "Invalid metric", kIn},
+    {"metric_non_finite", 422, "Invalid metric", kIn},
+    {"metric_degenerate", 422, "Invalid metric", kIn},
+
     // ---- the polygon (classify, and the boundary as a polygon): 422 -------------------------------------
     {"polygon_too_small", 422, kInvalidPolygon, kIn},
     {"polygon_non_finite", 422, kInvalidPolygon, kIn},

@@ -153,6 +153,9 @@ public:
   // boundary=texcoord:N: each boundary vertex pinned to its TEXCOORD_N, (u, v) = (s, 1 - t), in the order of
   // boundary_loop() (given as `vertices`). GltfError gltf_texcoord_missing when the primitive has no such set.
   RawBoundary texcoord_boundary(int set) const;
+  // metric=texcoord:N: TEXCOORD_N of every engine vertex as (u, v) = (s, 1 - t), the reference map of
+  // options.metric (paper 5.2). GltfError gltf_texcoord_missing when the primitive has no such set.
+  std::vector<Point2> texcoord_uv(int set) const;
 
   // The document with the primitive replaced by the refined mesh (see the conventions above). map.vertices
   // must start with mesh().vertices. `extras` goes to the primitive's extras under "lipmap". Throws
@@ -183,6 +186,9 @@ std::string write_answer(const ParametrizeResult& result, Format format);
 // command-line options. Strings are parsed strictly (GltfError gltf_invalid_request naming the parameter).
 struct Params {
   std::optional<std::string> mesh, primitive, weld, boundary;
+  // metric=texcoord:N (options.metric from TEXCOORD_N; with boundary=texcoord:N on the same set: "repair this
+  // chart") or metric=surface (the default).
+  std::optional<std::string> metric;
 };
 
 struct Request {
@@ -193,6 +199,8 @@ struct Request {
 
 // boundary=texcoord:N -> N; nullopt for anything not starting with "texcoord:"; GltfError for a bad N.
 std::optional<int> parse_texcoord_spec(std::string_view spec);
+// metric=texcoord:N -> N; metric=surface -> nullopt; GltfError gltf_invalid_request for anything else.
+std::optional<int> parse_metric_spec(std::string_view spec);
 
 // Body model/gltf-binary or model/gltf+json: the boundary must be params.boundary = texcoord:N.
 Request request_from_model(std::string_view bytes, Format format, const Params& params);

@@ -480,21 +480,36 @@ std::optional<Attribute> Asset::attribute(const std::string& name) const {
   return std::nullopt;
 }
 
-RawBoundary Asset::texcoord_boundary(int set) const {
+namespace {
+// TEXCOORD_N of the primitive, or GltfError gltf_texcoord_missing naming the parameter (what=texcoord:N).
+Attribute texcoord_set(const Asset& asset, int set, const char* what) {
   const std::string name = "TEXCOORD_" + std::to_string(set);
-  const std::optional<Attribute> tc = attribute(name);
+  std::optional<Attribute> tc = asset.attribute(name);
   if (!tc) {
     std::string have;
-    for (const std::string& n : attribute_names())
+    for (const std::string& n : asset.attribute_names())
       if (starts_with(n, "TEXCOORD_")) have += (have.empty() ? "" : ", ") + n;
-    fail("gltf_texcoord_missing", "boundary=texcoord:" + std::to_string(set) + ": the primitive has no " + name +
+    fail("gltf_texcoord_missing", std::string(what) + "=texcoord:" + std::to_string(set) + ": the primitive has no " + name +
                                       (have.empty() ? " (it has no TEXCOORD set)" : " (it has " + have + ")"));
   }
+  return std::move(*tc);
+}
+}  // namespace
+
+std::vector<Point2> Asset::texcoord_uv(int set) const {
+  const Attribute tc = texcoord_set(*this, set, "metric");
+  std::vector<Point2> uv(tc.values.size() / 2);
+  for (std::size_t v = 0; v < uv.size(); ++v) uv[v] = {tc.values[2 * v], 1.0 - tc.values[2 * v + 1]};
+  return uv;
+}
+
+RawBoundary Asset::texcoord_boundary(int set) const {
+  const Attribute tc = texcoord_set(*this, set, "boundary");
   RawBoundary b;
   b.vertices = std::vector<long long>();
   for (int v : impl_->loop) {
     b.vertices->push_back(v);
-    b.positions.push_back({tc->values[2 * v], 1.0 - tc->values[2 * v + 1]});
+    b.positions.push_back({tc.values[2 * v], 1.0 - tc.values[2 * v + 1]});
   }
   return b;
 }

@@ -57,7 +57,9 @@ codec::ParametrizeRequest parse_rest(const json* boundary, const json* options) 
   return codec::parametrize_request_from_json(body);
 }
 
-Request finish(Asset asset, const std::optional<int>& texcoord, const json* boundary, const json* options) {
+Request finish(Asset asset, const std::optional<int>& texcoord, const json* boundary, const json* options,
+               const Params& params) {
+  const std::optional<int> metric = params.metric ? parse_metric_spec(*params.metric) : std::nullopt;
   if (!texcoord && !boundary)
     fail("gltf_invalid_request", "no boundary: send it as JSON (a \"boundary\" member or multipart part) or ask for boundary=texcoord:N");
   if (texcoord && boundary)
@@ -65,6 +67,11 @@ Request finish(Asset asset, const std::optional<int>& texcoord, const json* boun
   Request r{std::move(asset), parse_rest(boundary, options), texcoord};
   r.request.mesh = r.asset.mesh();
   if (texcoord) r.request.boundary = r.asset.texcoord_boundary(*texcoord);
+  if (metric) {
+    if (r.request.options.metric)
+      fail("gltf_invalid_request", "two metrics: metric=texcoord:N and options.metric; send one");
+    r.request.options.metric = r.asset.texcoord_uv(*metric);
+  }
   return r;
 }
 
@@ -74,6 +81,13 @@ std::optional<int> parse_texcoord_spec(std::string_view spec) {
   const std::string s = trim(spec);
   if (s.rfind("texcoord:", 0) != 0) return std::nullopt;
   return parse_index(s.substr(9), "the N of boundary=texcoord:N");
+}
+
+std::optional<int> parse_metric_spec(std::string_view spec) {
+  const std::string s = trim(spec);
+  if (s == "surface") return std::nullopt;
+  if (const std::optional<int> n = parse_texcoord_spec(s)) return n;
+  fail("gltf_invalid_request", "the metric parameter must be texcoord:N or surface, got '" + s.substr(0, 40) + "'");
 }
 
 bool is_envelope(const nlohmann::json& body) { return body.is_object() && body.contains("gltf_base64"); }
@@ -90,7 +104,7 @@ Request request_from_model(std::string_view bytes, Format format, const Params& 
                                  "with parts \"model\" and \"boundary\", or the JSON envelope {\"gltf_base64\", \"boundary\"})");
   }
   Asset asset = Asset::read(bytes, selection_of(params, std::nullopt, std::nullopt, std::nullopt), format);
-  return finish(std::move(asset), texcoord, nullptr, nullptr);
+  return finish(std::move(asset), texcoord, nullptr, nullptr, params);
 }
 
 Request request_from_envelope(const nlohmann::json& body, const Params& params) {
@@ -136,7 +150,7 @@ Request request_from_envelope(const nlohmann::json& body, const Params& params) 
   // Shape errors of boundary/options before the (possibly large) model is read.
   parse_rest(boundary, options);
   Asset asset = Asset::read(bytes, sel);
-  return finish(std::move(asset), texcoord, boundary, options);
+  return finish(std::move(asset), texcoord, boundary, options, params);
 }
 
 Request request_from_parts(const std::map<std::string, Part>& parts, const Params& params) {
@@ -177,7 +191,7 @@ Request request_from_parts(const std::map<std::string, Part>& parts, const Param
   }
   parse_rest(boundary, options);
   Asset asset = Asset::read(model->second.content, selection_of(params, std::nullopt, std::nullopt, std::nullopt), format);
-  return finish(std::move(asset), texcoord, boundary, options);
+  return finish(std::move(asset), texcoord, boundary, options, params);
 }
 
 // ---- base64 -------------------------------------------------------------------------------------------

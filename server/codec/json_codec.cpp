@@ -269,6 +269,21 @@ RawBoundary read_boundary(const json& value, const Path& boundary_at) {
 }
 }  // namespace
 
+namespace {
+// options.metric: "surface" (nullopt) or {"uv": [[u, v]...]} (paper 5.2). Counts and values are the engine's
+// to judge (metric_length_mismatch, metric_non_finite, metric_degenerate): only the shape is checked here.
+std::optional<std::vector<Point2>> metric_option(const json& m, const Path& at) {
+  if (m.is_string()) {
+    if (m.get_ref<const std::string&>() == "surface") return std::nullopt;
+    fail("invalid_value", "metric must be \"surface\" or {\"uv\": [[u, v], ...]} (one point per vertex), got " + m.dump(), at);
+  }
+  if (!m.is_object())
+    fail("wrong_type", "metric must be \"surface\" or {\"uv\": [[u, v], ...]} (one point per vertex), got " + m.dump().substr(0, 40), at);
+  object(m, at, {"uv"});
+  return points2(required_member(m, "uv", at), at / "uv");
+}
+}  // namespace
+
 ParametrizeRequest parametrize_request_from_json(const json& body) {
   const Path root;
   object(body, root, {"mesh", "boundary", "options"});
@@ -301,7 +316,7 @@ ParametrizeRequest parametrize_request_from_json(const json& body) {
 
   if (const json* o = optional_member(body, "options")) {
     const Path at = root / "options";
-    object(*o, at, {"method", "refine", "target_density", "untangle", "optimize", "max_iterations", "time_budget_ms"});
+    object(*o, at, {"method", "refine", "target_density", "untangle", "optimize", "max_iterations", "time_budget_ms", "metric"});
     if (const json* m = optional_member(*o, "method")) {
       const std::string& name = string(*m, at / "method");
       if (name == "tutte") request.options.method = MapMethod::tutte;
@@ -328,6 +343,7 @@ ParametrizeRequest parametrize_request_from_json(const json& body) {
       if (!(ms >= 0)) fail("invalid_value", "time_budget_ms must be >= 0, got " + b->dump(), at / "time_budget_ms");
       request.options.time_budget_ms = ms;
     }
+    if (const json* m = optional_member(*o, "metric")) request.options.metric = metric_option(*m, at / "metric");
   }
   return request;
 }
@@ -351,6 +367,13 @@ ordered_json parametrize_request_to_json(const ParametrizeRequest& request) {
                     {"optimize", to_string(request.options.optimize)},
                     {"max_iterations", request.options.max_iterations},
                     {"time_budget_ms", request.options.time_budget_ms}};
+  if (request.options.metric) {
+    ordered_json uv = ordered_json::array();
+    for (const Point2& p : *request.options.metric) uv.push_back({p.x, p.y});
+    out["options"]["metric"] = {{"uv", std::move(uv)}};
+  } else {
+    out["options"]["metric"] = "surface";
+  }
   return out;
 }
 
@@ -499,6 +522,7 @@ std::optional<std::string> parametrize_error_pointer(const InputError& error) {
   if (starts_with(code, "rotation_ind")) return with_index("/boundary/rotation_indices", error.index());
   if (code == "boundary_length_mismatch") return std::string("/boundary/positions");
   if (code == "boundary_position_non_finite") return with_index("/boundary/positions", error.index());
+  if (element == "metric") return with_index("/options/metric/uv", error.index());
   if (starts_with(code, "boundary_vertex") || code == "boundary_not_loop_order")
     return with_index("/boundary/vertices", error.index());
   return std::nullopt;
@@ -524,6 +548,8 @@ ordered_json problem_json(int status, const std::string& title, const std::strin
 // ---- boundary document, engine options, parametrize answer -----------------------------------------
 
 RawBoundary boundary_from_json(const json& boundary) { return read_boundary(boundary, Path{}); }
+
+std::optional<std::vector<Point2>> metric_from_json(const json& metric) { return metric_option(metric, Path{}); }
 
 ordered_json boundary_to_json(const RawBoundary& boundary) {
   ordered_json out;
@@ -635,6 +661,16 @@ ordered_json detail::result_json(const lipmap::ParametrizeResult& r, bool big) {
                      {"max_dilatation", finite_or_null(e.max_dilatation)}};
   }
   d["distortion"] = distortion_json(r.distortion);
+  if (r.metric.given) {
+    const MetricReport& mr = r.metric;
+    d["metric"] = {{"path", mr.path},
+                   {"reproduced", mr.reproduced},
+                   {"reference_flipped", mr.reference_flipped},
+                   {"corrected_faces", mr.corrected_faces},
+                   {"chart_size", mr.distance.chart_size},
+                   {"distance_max", mr.distance.max},
+                   {"distance_mean", mr.distance.mean}};
+  }
   const StageTimings& t = r.timings;
   d["timings_ms"] = {{"validate", t.validate},     {"classify", t.classify}, {"target_mesh", t.target_mesh},
                      {"intermediate_maps", t.intermediate_maps}, {"compose", t.compose},

@@ -100,6 +100,11 @@ nlohmann::ordered_json parametrize_request_to_json(const ParametrizeRequest& req
 RawBoundary boundary_from_json(const nlohmann::json& boundary);
 nlohmann::ordered_json boundary_to_json(const RawBoundary& boundary);
 
+// options.metric alone, as a document of its own (`lipmap map --metric FILE`): "surface" (nullopt) or
+// {"uv": [[u, v]...]}, one point per mesh vertex (paper 5.2). Same rules as inside a parametrize request;
+// JSON pointers are relative to this document (e.g. /uv/3/0).
+std::optional<std::vector<Point2>> metric_from_json(const nlohmann::json& metric);
+
 // ---- parametrize answer (200 of POST /v1/parametrize, GET /v1/jobs/{id}/result, `lipmap map -o X.json`) --
 // proto/parametrize-answer.schema.json:
 // {"verdict", "turning_number", "singular_vertices" (mesh vertex indices of boundary vertices with R > 0),

@@ -95,6 +95,24 @@ LoadedRequest parametrize_json(const RequestInput& input) {
   return out;
 }
 
+// --metric: replaces options.metric (read after the main document and the boundary, like them in the order
+// of the command line).
+void apply_metric(const RequestInput& input, LoadedRequest& out) {
+  const std::string& spec = input.metric_file;
+  if (spec == "surface") {
+    out.request.options.metric.reset();
+  } else if (const std::optional<int> set = gltf::parse_texcoord_spec(spec)) {
+    if (!out.asset) throw gltf::GltfError("gltf_invalid_request", "metric " + spec + " needs a .glb or .gltf model");
+    out.request.options.metric = out.asset->texcoord_uv(*set);
+  } else {
+    try {
+      out.request.options.metric = metric_from_json(parse_json(read(input, spec)));
+    } catch (const JsonError& e) {
+      rethrow_in_file(e, spec);
+    }
+  }
+}
+
 }  // namespace
 
 const char* to_string(RequestForm form) {
@@ -148,6 +166,7 @@ LoadedRequest load_request(const RequestInput& input) {
       if (!input.boundary_file.empty()) out.request.boundary = boundary_document(input);
       break;
   }
+  if (!input.metric_file.empty()) apply_metric(input, out);
   apply(input.overrides, out.request.options);
   return out;
 }

@@ -53,6 +53,9 @@ struct RequestInput {
   std::function<std::string(const std::string& file)> read_file;
   // A separate boundary: a JSON boundary object in this file, or "texcoord:N" for a glTF model.
   std::string boundary_file;
+  // A metric given beside the request (command line --metric): "surface", "texcoord:N" for a glTF model, or
+  // a JSON metric document in this file ("surface" or {"uv": [[u, v]...]}); it replaces the request's own.
+  std::string metric_file;
   // glTF selection: parameters as they came (strings, parsed strictly), or already typed (command line).
   gltf::Params gltf_params;
   std::optional<gltf::Selection> gltf_selection;

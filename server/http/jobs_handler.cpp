@@ -198,7 +198,8 @@ Answer post_job(Service& service, const httplib::Request& req) {
         if (!req.has_param(name)) return std::nullopt;
         return req.get_param_value(name);
       };
-      job.stored.params = gltf::Params{param("mesh"), param("primitive"), param("weld"), param("boundary")};
+      job.stored.params =
+          gltf::Params{param("mesh"), param("primitive"), param("weld"), param("boundary"), param("metric")};
     }
     job.hooks = service.hooks_of(req);
     job.deadline = service.deadline_from_arrival();

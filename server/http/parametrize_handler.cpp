@@ -92,6 +92,7 @@ std::variant<ParsedParametrize, Answer> parse_parametrize(Service& service, cons
   input.gltf_params.primitive = param("primitive");
   input.gltf_params.weld = param("weld");
   input.gltf_params.boundary = param("boundary");
+  input.gltf_params.metric = param("metric");
   std::optional<codec::LoadedRequest> loaded;
   try {
     for (const auto& [name, file] : req.files) {

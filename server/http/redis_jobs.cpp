@@ -247,6 +247,7 @@ std::string RedisJobs::enqueue(const JobRequest& job) {
   param("primitive", request.params.primitive);
   param("weld", request.params.weld);
   param("boundary", request.params.boundary);
+  param("metric", request.params.metric);
   for (const auto& [name, part] : request.parts)
     hset.insert(hset.end(), {"part:" + name, part.content, "ptype:" + name, part.content_type});
   redis(hset);
@@ -419,6 +420,7 @@ std::optional<StoredRequest> RedisJobs::stored_request(const std::string& id) {
     else if (k == "p:primitive") s.params.primitive = v;
     else if (k == "p:weld") s.params.weld = v;
     else if (k == "p:boundary") s.params.boundary = v;
+    else if (k == "p:metric") s.params.metric = v;
     else if (k.rfind("part:", 0) == 0) s.parts[k.substr(5)].content = v;
     else if (k.rfind("ptype:", 0) == 0) s.parts[k.substr(6)].content_type = v;
   }
