@@ -14,7 +14,7 @@ setup() {
 }
 
 # Runs lipmap with stdout and stderr apart: $output is the answer, $stderr the error line.
-lipmap() { run --separate-stderr "$LIPMAP" "$@"; }
+load helpers/cli.bash
 
 # Runs lipmap on a body given as a string, through standard input.
 lipmap_body() {
@@ -27,13 +27,6 @@ validates() {  # validates SCHEMA: $output against proto/SCHEMA
 }
 
 # An error: the given exit code, nothing on stdout, exactly one line on stderr starting with the code.
-expect_error() {
-  local status_wanted="$1" code="$2"
-  [ "$status" -eq "$status_wanted" ] || { echo "status $status, wanted $status_wanted; stderr: $stderr" >&2; return 1; }
-  [ -z "$output" ] || { echo "stdout not empty: $output" >&2; return 1; }
-  [ "${#stderr_lines[@]}" -eq 1 ] || { echo "stderr has ${#stderr_lines[@]} lines: $stderr" >&2; return 1; }
-  [[ "$stderr" == "lipmap: error: $code: "* ]] || { echo "stderr: $stderr (wanted code $code)" >&2; return 1; }
-}
 
 # The triangulation of $output checked independently of the engine, for the polygon in file $1: n - 2
 # triangles with indices in range, each polygon edge (i, i+1) the directed edge of exactly one triangle,

@@ -39,20 +39,13 @@ EOF
 }
 
 # Runs lipmap with stdout and stderr apart.
-lipmap() { run --separate-stderr "$LIPMAP" "$@"; }
+load helpers/cli.bash
 
 validates() {  # validates SCHEMA FILE
   node "$ROOT/tests/tools/validate_json.js" "$1" "$2"
 }
 
 # An error: the given exit code, nothing on stdout, exactly one line on stderr starting with the code.
-expect_error() {
-  local status_wanted="$1" code="$2"
-  [ "$status" -eq "$status_wanted" ] || { echo "status $status, wanted $status_wanted; stderr: $stderr" >&2; return 1; }
-  [ -z "$output" ] || { echo "stdout not empty: $output" >&2; return 1; }
-  [ "${#stderr_lines[@]}" -eq 1 ] || { echo "stderr has ${#stderr_lines[@]} lines: $stderr" >&2; return 1; }
-  [[ "$stderr" == "lipmap: error: $code: "* ]] || { echo "stderr: $stderr (wanted code $code)" >&2; return 1; }
-}
 
 # ---- outputs ----------------------------------------------------------------------------------------------
 

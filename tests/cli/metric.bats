@@ -28,15 +28,7 @@ OBJ
   echo '{"positions": [[0, 0], [2, 0], [2, 2], [0, 2]]}' >"$T/square.json"
 }
 
-lipmap() { run --separate-stderr "$LIPMAP" "$@"; }
-
-expect_error() {
-  local status_wanted="$1" code="$2"
-  [ "$status" -eq "$status_wanted" ] || { echo "status $status, wanted $status_wanted; stderr: $stderr" >&2; return 1; }
-  [ -z "$output" ] || { echo "stdout not empty: $output" >&2; return 1; }
-  [ "${#stderr_lines[@]}" -eq 1 ] || { echo "stderr has ${#stderr_lines[@]} lines: $stderr" >&2; return 1; }
-  [[ "$stderr" == "lipmap: error: $code: "* ]] || { echo "stderr: $stderr (wanted code $code)" >&2; return 1; }
-}
+load helpers/cli.bash
 
 @test "--metric FILE: a locally injective reference comes back unchanged; a flipped one without flips" {
   echo '{"uv": [[0, 0], [2, 0], [2, 2], [0, 2], [0.7, 1.4]]}' >"$T/metric.json"
