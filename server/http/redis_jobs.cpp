@@ -177,7 +177,8 @@ RedisJobs::RedisJobs(Service& service)
       consumer_(replica_name()),
       visibility_(static_cast<long long>(service.config.queue_visibility_seconds * 1000)),
       ttl_(std::max<long long>(1, static_cast<long long>(service.config.result_ttl_seconds * 1000))),
-      local_(service.config.max_results, kLocalBytes, ttl_) {
+      local_(service.config.max_results, kLocalBytes, ttl_),
+      handoffs_(std::max<std::size_t>(service.config.queue_capacity, 1)) {
   fetcher_ = std::thread([this] { fetch_loop(); });
   heartbeat_ = std::thread([this] { heartbeat_loop(); });
 }
@@ -260,6 +261,7 @@ std::string RedisJobs::enqueue(const JobRequest& job) {
     redis({"DEL", req_key(id)});
     throw SharedQueueFull(static_cast<std::size_t>(integer(r->element[1])));
   }
+  if (job.parsed) handoffs_.put(id, {job.parsed, job.asset});
   wake();
   return id;
 }
@@ -615,7 +617,11 @@ void RedisJobs::run_job(const std::string& entry, const std::string& id) {
     TestHooks hooks;
     hooks.delay_ms = std::atoll(h["delay_ms"].c_str());
     hooks.fault = h["fault"];
-    std::optional<StoredRequest> stored = stored_request(id);
+    // Accepted here: the request as parsed then; else (another replica accepted it, or this is a rerun after a
+    // takeover) the stored one, loaded again.
+    std::optional<Handoffs::Parsed> parsed = handoffs_.take(id);
+    std::optional<StoredRequest> stored;
+    if (!parsed) stored = stored_request(id);
     {
       std::lock_guard<std::mutex> lock(running_mutex_);
       running_[id] = running;
@@ -627,11 +633,16 @@ void RedisJobs::run_job(const std::string& entry, const std::string& id) {
       if (attempts > kMaxAttempts)
         throw InternalError("the job was started " + std::to_string(attempts - 1) +
                             " times and its replica stopped each time before it finished");
-      if (!stored) throw InternalError("the job's request is no longer held by the shared queue");
+      if (!parsed && !stored) throw InternalError("the job's request is no longer held by the shared queue");
       job.token().check();
       apply_hooks(hooks, job.token());
-      codec::LoadedRequest loaded = codec::load_request(stored->input());
-      MapOutcome m = run_map(loaded.request, job.token(), [&job](Stage st, double f) { job.report(st, f); },
+      if (!parsed) {
+        codec::LoadedRequest loaded = codec::load_request(stored->input());
+        parsed.emplace();
+        parsed->request = std::make_shared<const codec::ParametrizeRequest>(std::move(loaded.request));
+        if (loaded.asset) parsed->asset = std::make_shared<const gltf::Asset>(std::move(*loaded.asset));
+      }
+      MapOutcome m = run_map(*parsed->request, job.token(), [&job](Stage st, double f) { job.report(st, f); },
                              service_.metrics);
       if (m.json->size() > service_.config.max_result_bytes) {
         job.fail(JobState::failed,
@@ -641,7 +652,7 @@ void RedisJobs::run_job(const std::string& entry, const std::string& id) {
       } else {
         text = m.json;
         local.result = m.result;
-        if (loaded.asset) local.asset = std::make_shared<const gltf::Asset>(std::move(*loaded.asset));
+        local.asset = parsed->asset;
         job.succeed(m.json, m.result);
       }
     } catch (...) {
@@ -704,6 +715,42 @@ void RedisJobs::run_job(const std::string& entry, const std::string& id) {
 void RedisJobs::hand_back_running() {
   std::lock_guard<std::mutex> lock(running_mutex_);
   for (auto& [id, r] : running_) r->job.request_cancel(CancelReason::shutdown);
+}
+
+}  // namespace lipmap::server
+
+// ---- Handoffs ---------------------------------------------------------------------------------------------
+
+namespace lipmap::server {
+
+void Handoffs::put(const std::string& id, Parsed parsed) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (by_id_.emplace(id, std::move(parsed)).second) order_.push_back(id);
+  while (by_id_.size() > max_entries_ && !order_.empty()) {
+    by_id_.erase(order_.front());
+    order_.pop_front();
+  }
+  // Ids taken long ago: the list never grows past twice the entries.
+  if (order_.size() > 2 * max_entries_) {
+    std::list<std::string> live;
+    for (const std::string& k : order_)
+      if (by_id_.count(k)) live.push_back(k);
+    order_.swap(live);
+  }
+}
+
+std::optional<Handoffs::Parsed> Handoffs::take(const std::string& id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  auto it = by_id_.find(id);
+  if (it == by_id_.end()) return std::nullopt;
+  Parsed p = std::move(it->second);
+  by_id_.erase(it);
+  return p;
+}
+
+std::size_t Handoffs::size() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return by_id_.size();
 }
 
 }  // namespace lipmap::server

@@ -21,6 +21,10 @@
 // at most the retention time, 256 MiB in all), so that GET .../result landing there reads the result from
 // memory instead of Redis and a rendering is made without running the job again. Whether the job is still
 // held (not deleted or expired) is always asked of Redis.
+//
+// The replica that accepted a job also keeps the request it parsed (Handoffs) until a worker of its own
+// starts the job, so that the common case (the job runs where it came in) neither reads the stored body back
+// from Redis nor parses it again; a job taken by another replica, or reclaimed, loads the stored request.
 #pragma once
 
 #include <atomic>
@@ -77,6 +81,26 @@ private:
   std::list<Entry> order_;  // most recently used first
   std::unordered_map<std::string, std::list<Entry>::iterator> by_id_;
   std::size_t bytes_ = 0;
+};
+
+// Requests parsed by this replica for jobs not yet started here, oldest dropped first beyond `max_entries`
+// (a job another replica took leaves its entry until it ages out this way).
+class Handoffs {
+public:
+  struct Parsed {
+    std::shared_ptr<const codec::ParametrizeRequest> request;
+    std::shared_ptr<const gltf::Asset> asset;
+  };
+  explicit Handoffs(std::size_t max_entries) : max_entries_(max_entries) {}
+  void put(const std::string& id, Parsed parsed);
+  std::optional<Parsed> take(const std::string& id);  // removes it
+  std::size_t size() const;
+
+private:
+  const std::size_t max_entries_;
+  mutable std::mutex mutex_;
+  std::unordered_map<std::string, Parsed> by_id_;
+  std::list<std::string> order_;  // oldest first; may name ids already taken
 };
 
 class RedisJobs : public JobQueue {
@@ -144,6 +168,7 @@ private:
   std::mutex running_mutex_;
   std::map<std::string, std::shared_ptr<Running>> running_;  // by job id
   LocalResults local_;
+  Handoffs handoffs_;
 
   std::atomic<bool> fetching_{true}, stopping_{false};
   std::atomic<std::uint64_t> reclaimed_{0}, errors_{0}, local_reads_{0};
