@@ -64,14 +64,19 @@ if s ~= 'queued' and s ~= 'running' then return {s, 0} end
 redis.call('HSET', KEYS[1], 'state', 'running', 'started', ARGV[1], 'owner', ARGV[2])
 return {'run', redis.call('HINCRBY', KEYS[1], 'attempts', 1)})";
 
-// KEYS job, result, req, gone; ARGV state, problem, result, finished, result_bytes, progress, keep_ms, gone_ms.
+// KEYS job, result, req, gone; ARGV state, problem, (unused), finished, result_bytes, progress, keep_ms, gone_ms.
+// The result itself is SET just before (a megabyte handed to a script as an argument costs milliseconds of
+// copying into Lua; a plain SET does not). A job deleted, cancelled or failed meanwhile drops it again; one
+// that another replica finished first (it had taken the job over) keeps it: the same job gives the same answer.
 const char* kFinish = R"(
 local s = redis.call('HGET', KEYS[1], 'state')
-if not s then return 'missing' end
-if s ~= 'running' then return s end
+if not s then redis.call('DEL', KEYS[2]) return 'missing' end
+if s ~= 'running' then
+  if s ~= 'succeeded' then redis.call('DEL', KEYS[2]) end
+  return s
+end
 redis.call('HSET', KEYS[1], 'state', ARGV[1], 'finished', ARGV[4], 'result_bytes', ARGV[5], 'progress', ARGV[6])
 if ARGV[2] ~= '' then redis.call('HSET', KEYS[1], 'problem', ARGV[2]) end
-if ARGV[3] ~= '' then redis.call('SET', KEYS[2], ARGV[3], 'PX', ARGV[7]) end
 redis.call('PEXPIRE', KEYS[1], ARGV[7])
 redis.call('PEXPIRE', KEYS[3], ARGV[7])
 redis.call('SET', KEYS[4], 'expired', 'PX', ARGV[8])
@@ -588,9 +593,10 @@ void RedisJobs::ack(RedisConnection& c, const std::string& entry) {
 
 void RedisJobs::finish(RedisConnection& c, const std::string& entry, const std::string& id, const JobSnapshot& s,
                        const std::string* result) {
+  if (result) c.command({"SET", result_key(id), *result, "PX", std::to_string(ttl_.count())});
   c.command({"EVAL", kFinish, "4", job_key(id), result_key(id), req_key(id), gone_key(id), to_string(s.state),
              s.problem ? s.problem->dump(-1, ' ', false, ordered_json::error_handler_t::replace) : std::string(),
-             result ? *result : std::string(), std::to_string(now_ms()), std::to_string(s.result_bytes),
+             std::string(), std::to_string(now_ms()), std::to_string(s.result_bytes),
              progress_text(s), std::to_string(ttl_.count()), std::to_string(ttl_.count() + kTombstoneMs)});
   ack(c, entry);
 }
