@@ -21,16 +21,33 @@
 # (with Retry-After), useful >= 80% of capacity, every /healthz within 1 s; slow clients: every health probe
 # answered, >= 90% of normal requests answered. It reports; it asserts nothing.
 #
-# The load comes from one node process (bench/overload_driver.js), not a curl per request: on 2 cores the
-# driver's CPU is taken from the service it measures, and hundreds of processes a second would dominate.
+# The load comes from one node process (bench/overload_driver.js), not a curl per request: hundreds of
+# processes a second would dominate. On a machine with few cores the load generator's CPU would come out of the
+# service it measures (at 5x on the small mesh the driver alone takes a good part of a core), so by default
+# (BENCH_PIN=auto, 2 cores or more and taskset present) the service runs on core 0 with one worker and the
+# driver, the probes and curl on core 1: capacity and overload are then the same one core's worth, and every
+# refusal's cost, accept, head and body read included, is taken from that core. BENCH_PIN=no shares all cores
+# (then BENCH_WORKERS defaults to 2). Each phase also prints the service's CPU time per answer.
 #
-# Environment: LIPMAP_BUILD_DIR (build), BENCH_WORKERS (2), BENCH_QUEUE (4), BENCH_GRIDS ("8 64"), BENCH_SECONDS
+# Environment: LIPMAP_BUILD_DIR (build), BENCH_PIN (auto), BENCH_WORKERS (1 pinned, else 2), BENCH_QUEUE (4),
+# BENCH_GRIDS ("8 64"), BENCH_SECONDS
 # (20), BENCH_SETTLE (30: seconds before the RSS "after"), BENCH_SLOW (500), BENCH_SLOW_SECONDS (60). Needs
 # curl, jq and node (tests/http/helpers/make_request.js writes the requests).
 set -uo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 lipmap="${LIPMAP_BUILD_DIR:-build}/server/lipmap"
-workers="${BENCH_WORKERS:-2}"
+pin="${BENCH_PIN:-auto}"
+if [[ "$pin" == auto ]]; then
+  if (($(nproc) >= 2)) && command -v taskset >/dev/null; then pin=yes; else pin=no; fi
+fi
+service_cpu=() client_cpu=()
+if [[ "$pin" == yes ]]; then
+  service_cpu=(taskset -c 0)
+  client_cpu=(taskset -c 1)
+  workers="${BENCH_WORKERS:-1}"
+else
+  workers="${BENCH_WORKERS:-2}"
+fi
 queue="${BENCH_QUEUE:-4}"
 grids="${BENCH_GRIDS:-8 64}"
 seconds="${BENCH_SECONDS:-20}"
@@ -51,7 +68,7 @@ cleanup() {
 trap cleanup EXIT
 
 start_server() {  # start_server ARGS...: sets $server, $url, $admin (the "listening" line is logged at any level)
-  "$lipmap" serve --host 127.0.0.1 --port 0 --admin-port 0 --log-level warn "$@" 2>"$work/serve.log" &
+  "${service_cpu[@]}" "$lipmap" serve --host 127.0.0.1 --port 0 --admin-port 0 --log-level warn "$@" 2>"$work/serve.log" &
   server=$!
   local i line=""
   for i in $(seq 100); do
@@ -64,6 +81,8 @@ start_server() {  # start_server ARGS...: sets $server, $url, $admin (the "liste
   admin="http://127.0.0.1:$(jq -r .admin_port <<<"$line")"
 }
 stop_server() { kill -TERM "$server"; wait "$server" 2>/dev/null; server=""; }
+# cpu_ticks: the service's user + system CPU time so far, in clock ticks
+cpu_ticks() { awk '{print $14 + $15}' "/proc/$server/stat" 2>/dev/null || echo 0; }
 rss_mb() { awk '/^VmRSS/ {printf "%.0f", $2 / 1024}' "/proc/$server/status" 2>/dev/null; }
 
 # probe URL SECONDS OUT: a /healthz every 0.5 s with a 1 s timeout; one line per probe: status seconds
@@ -71,7 +90,7 @@ probe() {
   local until=$(($(date +%s) + $2))
   while [[ $(date +%s) -lt $until ]]; do
     # curl prints its -w line on a timeout too (status 000): one line per probe
-    curl -s -o /dev/null --max-time 1 -w '%{http_code} %{time_total}\n' "$1/healthz" || true
+    "${client_cpu[@]}" curl -s -o /dev/null --max-time 1 -w '%{http_code} %{time_total}\n' "$1/healthz" || true
     sleep 0.5
   done >"$3"
 }
@@ -100,17 +119,23 @@ probe_ok() {  # probe_ok FILE: "yes" when every probe answered 200 within 1 s
   awk '{n++; if ($1 != 200 || $2 > 1) bad++} END {print (n && !bad) ? "yes" : "no"}' "$1"
 }
 
-echo "bench_overload: $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg); workers $workers, queue $queue, ${seconds} s per phase"
+echo "bench_overload: $(nproc) cores, load $(cut -d' ' -f1-3 /proc/loadavg); workers $workers, queue $queue, ${seconds} s per phase;" \
+  "$([[ "$pin" == yes ]] && echo "service pinned to core 0, load generator and probes to core 1" || echo "service and load generator share the cores")"
+hz="$(getconf CLK_TCK)"
 summary=()
 for grid in $grids; do
   node tests/http/helpers/make_request.js grid "$grid" spiral >"$work/request.json"
   tris=$((2 * (grid - 1) * (grid - 1)))
   start_server --workers "$workers" --queue "$queue"
   # warm-up: the first jobs pay for page faults and lazy initialization
-  node bench/overload_driver.js closed "$url" "$work/request.json" "$workers" 2 >/dev/null
-  node bench/overload_driver.js closed "$url" "$work/request.json" $((workers + queue)) "$seconds" >"$work/capacity"
+  "${client_cpu[@]}" node bench/overload_driver.js closed "$url" "$work/request.json" "$workers" 2 >/dev/null
+  ticks="$(cpu_ticks)"
+  "${client_cpu[@]}" node bench/overload_driver.js closed "$url" "$work/request.json" $((workers + queue)) "$seconds" >"$work/capacity"
+  ticks=$(($(cpu_ticks) - ticks))
   capacity="$(awk -v s="$seconds" '$1 == 200 {n++} END {printf "%.1f", n / s}' "$work/capacity")"
   echo "grid ${grid} (${tris} triangles) capacity: $capacity jobs/s with $((workers + queue)) closed-loop clients;" \
+    "service CPU $(awk -v t="$ticks" -v hz="$hz" -v s="$seconds" -v n="$(wc -l <"$work/capacity")" \
+      'BEGIN {printf "%.2f cores, %.2f ms per answer", t / hz / s, n ? 1000 * t / hz / n : 0}');" \
     "200s: median $(quantile 0.5 "$work/capacity" 200) ms, p99 $(quantile 0.99 "$work/capacity" 200) ms;" \
     "other answers $(awk '$1 != 200' "$work/capacity" | wc -l)"
   for factor in 2 5; do
@@ -124,7 +149,9 @@ for grid in $grids; do
     rss_peak "$seconds" "$work/peak" &
     helpers+=($!)
     load="$(cut -d' ' -f1 /proc/loadavg)"
-    node bench/overload_driver.js open "$url" "$work/request.json" "$rate" "$seconds" >"$work/over"
+    ticks="$(cpu_ticks)"
+    "${client_cpu[@]}" node bench/overload_driver.js open "$url" "$work/request.json" "$rate" "$seconds" >"$work/over"
+    ticks=$(($(cpu_ticks) - ticks))
     wait "${helpers[@]}"
     sleep "$settle"
     rss_after="$(rss_mb)"
@@ -141,6 +168,8 @@ for grid in $grids; do
     echo "grid ${grid} overload ${factor}x: 200s median $(quantile 0.5 "$work/over" 200) ms, p99 $(quantile 0.99 "$work/over" 200) ms;" \
       "503s median $(quantile 0.5 "$work/over" 503) ms, p99 $(quantile 0.99 "$work/over" 503) ms"
     echo "grid ${grid} overload ${factor}x: /healthz admin: $(probe_summary "$work/probe_admin"); main: $(probe_summary "$work/probe_main")"
+    echo "grid ${grid} overload ${factor}x: service CPU $(awk -v t="$ticks" -v hz="$hz" -v s="$seconds" \
+      'BEGIN {printf "%.2f cores", t / hz / s}') while the load was offered"
     echo "grid ${grid} overload ${factor}x: RSS before $rss_before MB, peak $(cat "$work/peak") MB, ${settle} s after $rss_after MB"
     if ((factor == 5)); then
       summary+=("summary: grid ${grid} overload 5x: only 200 and 503: $only_ok (other $other, 503 without Retry-After $bad);\
@@ -187,7 +216,7 @@ helpers+=($!)
 until=$(($(date +%s) + slow_seconds - 4))
 for i in 1 2; do
   (while [[ $(date +%s) -lt $until ]]; do
-     curl -s -o /dev/null --max-time 10 -w '%{http_code} %{time_total}\n' --json "@$work/classify.json" "$url/v1/polygons/classify" || true
+     "${client_cpu[@]}" curl -s -o /dev/null --max-time 10 -w '%{http_code} %{time_total}\n' --json "@$work/classify.json" "$url/v1/polygons/classify" || true
      sleep 0.2
    done >"$work/slow_normal.$i") &
   helpers+=($!)

@@ -99,4 +99,37 @@ Reply RedisConnection::command(const std::vector<std::string>& args) {
   return r;
 }
 
+std::vector<Reply> RedisConnection::pipeline(const std::vector<std::vector<std::string>>& commands) {
+  if (broken_) throw QueueUnavailable("the Redis connection is broken");
+  auto fail = [this](const char* what) {
+    broken_ = true;
+    throw QueueUnavailable(std::string("Redis: ") + (c_->err ? c_->errstr : what));
+  };
+  for (const auto& args : commands) {
+    std::vector<const char*> argv;
+    std::vector<size_t> lengths;
+    argv.reserve(args.size());
+    lengths.reserve(args.size());
+    for (const std::string& a : args) {
+      argv.push_back(a.data());
+      lengths.push_back(a.size());
+    }
+    if (redisAppendCommandArgv(c_, static_cast<int>(argv.size()), argv.data(), lengths.data()) != REDIS_OK)
+      fail("cannot queue a command");
+  }
+  std::vector<Reply> replies;
+  replies.reserve(commands.size());
+  std::string first_error;
+  for (const auto& args : commands) {
+    void* raw = nullptr;
+    if (redisGetReply(c_, &raw) != REDIS_OK || !raw) fail("no reply");
+    Reply r(static_cast<redisReply*>(raw));
+    if (r->type == REDIS_REPLY_ERROR && first_error.empty())
+      first_error = "Redis " + args[0] + ": " + std::string(r->str, r->len);
+    replies.push_back(std::move(r));
+  }
+  if (!first_error.empty()) throw ReplyError(first_error);
+  return replies;
+}
+
 }  // namespace lipmap::server

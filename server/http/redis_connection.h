@@ -53,6 +53,11 @@ public:
 
   // Throws QueueUnavailable (the connection is then broken for good) or ReplyError.
   Reply command(const std::vector<std::string>& args);
+  // Several commands in one round trip (hiredis' pipelining: all sent, then all replies read), replies in
+  // order. Every reply is read before an error is thrown (ReplyError for the first error reply), so that the
+  // connection stays usable. On a busy machine each round trip to another process can cost a scheduling
+  // slice; a job's few Redis steps are each one round trip.
+  std::vector<Reply> pipeline(const std::vector<std::vector<std::string>>& commands);
   bool broken() const { return broken_; }
 
 private:

@@ -64,22 +64,30 @@ if s ~= 'queued' and s ~= 'running' then return {s, 0} end
 redis.call('HSET', KEYS[1], 'state', 'running', 'started', ARGV[1], 'owner', ARGV[2])
 return {'run', redis.call('HINCRBY', KEYS[1], 'attempts', 1)})";
 
-// KEYS job, result, req, gone; ARGV state, problem, (unused), finished, result_bytes, progress, keep_ms, gone_ms.
+// KEYS job, result, req, gone, stream; ARGV state, problem, result_sent ('1' or ''), finished, result_bytes,
+// progress, keep_ms, gone_ms, entry. The stream entry is acknowledged and deleted once the job is final.
 // The result itself is SET just before (a megabyte handed to a script as an argument costs milliseconds of
 // copying into Lua; a plain SET does not). A job deleted, cancelled or failed meanwhile drops it again; one
 // that another replica finished first (it had taken the job over) keeps it: the same job gives the same answer.
 const char* kFinish = R"(
 local s = redis.call('HGET', KEYS[1], 'state')
-if not s then redis.call('DEL', KEYS[2]) return 'missing' end
+local function ack()
+  redis.call('XACK', KEYS[5], 'workers', ARGV[9])
+  redis.call('XDEL', KEYS[5], ARGV[9])
+end
+if not s then redis.call('DEL', KEYS[2]) ack() return 'missing' end
 if s ~= 'running' then
   if s ~= 'succeeded' then redis.call('DEL', KEYS[2]) end
+  ack()
   return s
 end
+if ARGV[3] == '1' and redis.call('EXISTS', KEYS[2]) == 0 then return 'no_result' end
 redis.call('HSET', KEYS[1], 'state', ARGV[1], 'finished', ARGV[4], 'result_bytes', ARGV[5], 'progress', ARGV[6])
 if ARGV[2] ~= '' then redis.call('HSET', KEYS[1], 'problem', ARGV[2]) end
 redis.call('PEXPIRE', KEYS[1], ARGV[7])
 redis.call('PEXPIRE', KEYS[3], ARGV[7])
 redis.call('SET', KEYS[4], 'expired', 'PX', ARGV[8])
+ack()
 return 'ok')";
 
 // KEYS job; ARGV problem, finished. The state before: 'queued' (now cancelled), 'running' (flag set), ...
@@ -256,11 +264,14 @@ std::string RedisJobs::enqueue(const JobRequest& job) {
   param("metric", request.params.metric);
   for (const auto& [name, part] : request.parts)
     hset.insert(hset.end(), {"part:" + name, part.content, "ptype:" + name, part.content_type});
-  redis(hset);
-  redis({"PEXPIRE", req_key(id), std::to_string(keep)});
-  Reply r = redis({"EVAL", kSubmit, "2", kStream, job_key(id), std::to_string(service_.config.queue_capacity), id,
-                   std::to_string(created), std::to_string(deadline_ms), std::to_string(job.hooks.delay_ms), job.hooks.fault,
-                   std::to_string(keep)});
+  // One round trip: the request, its expiry, then the job (refused when the shared queue is full).
+  std::vector<Reply> replies = redis.connection().pipeline(
+      {hset,
+       {"PEXPIRE", req_key(id), std::to_string(keep)},
+       {"EVAL", kSubmit, "2", kStream, job_key(id), std::to_string(service_.config.queue_capacity), id,
+        std::to_string(created), std::to_string(deadline_ms), std::to_string(job.hooks.delay_ms), job.hooks.fault,
+        std::to_string(keep)}});
+  const Reply& r = replies[2];
   if (!is_array(r.get(), 2)) throw QueueUnavailable("Redis: unexpected answer to the submit script");
   if (integer(r->element[0]) == 0) {
     redis({"DEL", req_key(id)});
@@ -587,25 +598,37 @@ void RedisJobs::heartbeat_loop() {
 }
 
 void RedisJobs::ack(RedisConnection& c, const std::string& entry) {
-  c.command({"XACK", kStream, kGroup, entry});
-  c.command({"XDEL", kStream, entry});
+  c.pipeline({{"XACK", kStream, kGroup, entry}, {"XDEL", kStream, entry}});
 }
 
 void RedisJobs::finish(RedisConnection& c, const std::string& entry, const std::string& id, const JobSnapshot& s,
                        const std::string* result) {
-  if (result) c.command({"SET", result_key(id), *result, "PX", std::to_string(ttl_.count())});
-  c.command({"EVAL", kFinish, "4", job_key(id), result_key(id), req_key(id), gone_key(id), to_string(s.state),
-             s.problem ? s.problem->dump(-1, ' ', false, ordered_json::error_handler_t::replace) : std::string(),
-             std::string(), std::to_string(now_ms()), std::to_string(s.result_bytes),
-             progress_text(s), std::to_string(ttl_.count()), std::to_string(ttl_.count() + kTombstoneMs)});
-  ack(c, entry);
+  // One round trip: the result, the job's final state, and the stream entry acknowledged and deleted.
+  std::vector<std::vector<std::string>> commands;
+  if (result) commands.push_back({"SET", result_key(id), *result, "PX", std::to_string(ttl_.count())});
+  commands.push_back({"EVAL", kFinish, "5", job_key(id), result_key(id), req_key(id), gone_key(id), kStream, to_string(s.state),
+                      s.problem ? s.problem->dump(-1, ' ', false, ordered_json::error_handler_t::replace) : std::string(),
+                      result ? "1" : "", std::to_string(now_ms()), std::to_string(s.result_bytes), progress_text(s),
+                      std::to_string(ttl_.count()), std::to_string(ttl_.count() + kTombstoneMs), entry});
+  std::vector<Reply> replies;
+  try {
+    replies = c.pipeline(commands);
+  } catch (const ReplyError& e) {
+    // Redis refused a write (e.g. out of memory): the job stays running and its entry pending, so it is taken
+    // over and finished later rather than marked succeeded without its result.
+    throw QueueUnavailable(e.what());
+  }
+  if (str(replies.back().get()) == "no_result") throw QueueUnavailable("Redis did not keep the result");
 }
 
 void RedisJobs::run_job(const std::string& entry, const std::string& id) {
   std::shared_ptr<Running> running;
   try {
     Lease redis(*this);
-    Reply started = redis({"EVAL", kStart, "1", job_key(id), std::to_string(now_ms()), consumer_});
+    // One round trip: the start, then the job's fields (read only when it starts).
+    std::vector<Reply> start = redis.connection().pipeline(
+        {{"EVAL", kStart, "1", job_key(id), std::to_string(now_ms()), consumer_}, {"HGETALL", job_key(id)}});
+    const Reply& started = start[0];
     const std::string verdict = is_array(started.get(), 2) ? str(started->element[0]) : "missing";
     if (verdict != "run") {  // finished, cancelled while queued, or no longer held
       ack(redis.connection(), entry);
@@ -613,7 +636,7 @@ void RedisJobs::run_job(const std::string& entry, const std::string& id) {
       return;
     }
     const long long attempts = integer(started->element[1]);
-    auto h = hash_of(redis({"HGETALL", job_key(id)}).get());
+    auto h = hash_of(start[1].get());
     running = std::make_shared<Running>(entry, id);
     Job& job = running->job;
     job.mark_running();
