@@ -4,7 +4,7 @@
 // ours, the composed map's flips, and the time per stage.
 //
 //   bench_quality [--seeds N] [--mesh NAME]... [--budget-s S] [--baseline] [--optimize NAME]
-//                 [--max-iterations N]
+//                 [--max-iterations N] [--all-kinds]
 //
 // Seeds: seed 0 is the generator's target as it is; seed s > 0 applies an orientation-preserving linear map
 // A_s (a rotation, an anisotropic stretch of 1.15 .. 1.6, another rotation; std::mt19937 seeded with s) to the
@@ -17,6 +17,9 @@
 // stay out of the comparisons of the summary.
 // --baseline runs the pipeline as it was before untangling and optimization existed (untangle off, optimize
 // none): the "before" figures. Each row gets S seconds (default 30) through the CancelToken: "timeout".
+// --all-kinds adds the kinds without a certificate on the source (circle, c_shape, spiral_arm: simple polygons;
+// weak_fan: weakly self-overlapping): their rows show "-" and stay out of the comparisons, but count for the
+// time and inserted-count figures (the maze onto a simple spiral is the classic runaway case).
 // Mean K: area-weighted mean of K = sigma1 / sigma2 (engine/quality.h), the same measure for both.
 #include <algorithm>
 #include <chrono>
@@ -88,6 +91,7 @@ int main(int argc, char** argv) {
   int seeds = 3;
   double budget_s = 30;
   bool baseline = false;
+  bool all_kinds = false;
   std::vector<std::string> only;
   lipmap::ParametrizeOptions options;
   std::string data = default_data_dir();
@@ -97,6 +101,7 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--mesh") && i + 1 < argc) only.push_back(argv[++i]);
     else if (!std::strcmp(argv[i], "--budget-s") && i + 1 < argc) budget_s = std::max(1.0, std::atof(argv[++i]));
     else if (!std::strcmp(argv[i], "--baseline")) baseline = true;
+    else if (!std::strcmp(argv[i], "--all-kinds")) all_kinds = true;
     else if (!std::strcmp(argv[i], "--optimize") && i + 1 < argc) {
       if (!lipmap::parse_optimize_energy(argv[++i], options.optimize)) {
         std::printf("unknown energy %s\n", argv[i]);
@@ -105,7 +110,7 @@ int main(int argc, char** argv) {
     } else if (!std::strcmp(argv[i], "--max-iterations") && i + 1 < argc) options.max_iterations = std::atoi(argv[++i]);
     else {
       std::printf("usage: %s [--seeds N] [--mesh NAME]... [--budget-s S] [--baseline] [--optimize NAME] "
-                  "[--max-iterations N]\n", argv[0]);
+                  "[--max-iterations N] [--all-kinds]\n", argv[0]);
       return 0;
     }
   }
@@ -135,7 +140,8 @@ int main(int argc, char** argv) {
       continue;
     }
     const lipmap::targetgen::DiskMeshRef ref{mesh.vertices, mesh.faces, mesh.boundary_loop};
-    for (Kind kind : {Kind::exp_strip, Kind::power_map, Kind::cubic_map, Kind::bent_strip}) {
+    const std::vector<Kind> certified = {Kind::exp_strip, Kind::power_map, Kind::cubic_map, Kind::bent_strip};
+    for (Kind kind : all_kinds ? lipmap::targetgen::all_kinds() : certified) {
       std::string why;
       const auto target = lipmap::targetgen::make_target(kind, ref, &why);
       if (!target) {
@@ -188,7 +194,7 @@ int main(int argc, char** argv) {
             std::snprintf(cert_k, sizeof cert_k, "%.3g", r.cert_mean_k);
             std::snprintf(ratio, sizeof ratio, "%.2f", r.mean_k / r.cert_mean_k);
           }
-          if (r.inserted > 0 && !r.untangle_outcome.empty()) std::printf("   untangle: %s\n", r.untangle_outcome.c_str());
+          if ((r.inserted > 0 || r.untangled) && !r.untangle_outcome.empty()) std::printf("   untangle: %s\n", r.untangle_outcome.c_str());
           std::printf("%-26s %-10s %4d %4s %6s %6lld %9s %9.3g %9.3g %6s %7d %7d %5d %9.1f %9.1f %9.1f %9.1f %9.3g\n",
                       name.c_str(), r.kind.c_str(), seed, r.cert_on_source ? "src" : "poly", cert_ins, r.inserted, cert_k,
                       r.mean_k, r.max_k, ratio, r.flips_before, r.flips_after_untangle, r.iterations, r.t_untangle,
@@ -207,6 +213,8 @@ int main(int argc, char** argv) {
   const Row* worst_ratio = nullptr;
   const Row* worst_excess = nullptr;
   const Row* slowest = nullptr;
+  const Row* most_inserted = nullptr;
+  const Row* largest_max_k = nullptr;
   for (const Row& r : rows) {
     if (!r.error.empty()) {
       ++errors;
@@ -214,6 +222,8 @@ int main(int argc, char** argv) {
     }
     if (r.total > 30000) ++over30;
     if (!slowest || r.total > slowest->total) slowest = &r;
+    if (!most_inserted || r.inserted > most_inserted->inserted) most_inserted = &r;
+    if (!largest_max_k || r.max_k > largest_max_k->max_k) largest_max_k = &r;
     if (r.inserted == 0) ++zero_ins;
     if (!r.cert_on_source) continue;
     ++comparable;
@@ -243,6 +253,12 @@ int main(int argc, char** argv) {
   if (slowest)
     std::printf("summary: slowest row %.0f ms: %s %s seed %d\n", slowest->total, slowest->mesh.c_str(),
                 slowest->kind.c_str(), slowest->seed);
+  if (most_inserted)
+    std::printf("summary: most inserted in any row %lld: %s %s seed %d\n", most_inserted->inserted,
+                most_inserted->mesh.c_str(), most_inserted->kind.c_str(), most_inserted->seed);
+  if (largest_max_k)
+    std::printf("summary: largest max K %.4g: %s %s seed %d\n", largest_max_k->max_k, largest_max_k->mesh.c_str(),
+                largest_max_k->kind.c_str(), largest_max_k->seed);
   std::printf("\ncolumns: cert = where the certificate lives (src: the source mesh, poly: the generator's own mesh); "
               "c.ins / ins = inserted vertices; c.meanK / meanK = area-weighted mean K; ratio = meanK / c.meanK; "
               "flips = composed map's non-positive faces; left = after untangling; iter = optimization steps; "

@@ -265,8 +265,7 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
         return untangle(work_mesh, input.boundary.loop, work_polygon, rotation, reference, cancel, &metric->rest);
       });
       if (out.untangling.succeeded) {
-        candidate.uv = std::move(out.untangling.uv);
-        out.map = std::move(candidate);
+        out.map = untangled_map(work_mesh, out.untangling);
         out.metric.path = "untangled";
         finish();
       return out;
@@ -351,7 +350,13 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
     const bool needed = options.refine && !out.untangling.succeeded;
     RefinedMap m = refine(work_mesh, input.boundary.loop, out.classification.rotation_indices, source_disk, target,
                           disk.target.uv, composition, needed, cancel);
-    if (out.untangling.succeeded) m.uv = std::move(out.untangling.uv);
+    if (out.untangling.succeeded) {
+      RefinedMap u = untangled_map(work_mesh, out.untangling);
+      m.vertices = std::move(u.vertices);
+      m.faces = std::move(u.faces);
+      m.uv = std::move(u.uv);
+      m.inserted = std::move(u.inserted);
+    }
     return m;
   });
   // Reported as the paper's "flipped before refinement": the composed map's flips, before relocation.

@@ -2,6 +2,7 @@
 #include "engine/untangle.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "engine/detail/uv_descent.h"
@@ -18,6 +19,9 @@ namespace {
 constexpr int kRounds = 100;
 constexpr int kStepsPerRound = 1000;
 constexpr int kStepsInAll = 20000;
+constexpr int kMinStepsInAll = 2000;
+constexpr double kFaceStepsInAll = 6e7;  // steps x faces: about 4 s on the 9k-face maze
+constexpr int kSplitPasses = 3;          // rounds of chord splits after a failed run
 constexpr double kMaxStartEpsilon = 0.1;
 
 double shoelace(const std::vector<Point2>& p) {
@@ -26,7 +30,88 @@ double shoelace(const std::vector<Point2>& p) {
   return 0.5 * a;
 }
 
+Point3 lerp(const Point3& a, const Point3& b, double t) {
+  return {a.x + t * (b.x - a.x), a.y + t * (b.y - a.y), a.z + t * (b.z - a.z)};
+}
+
+// The chord splits of the header: for each fixed (three pinned corners) non-positive face not yet served by a
+// split, one of its interior edges, preferring one whose other face is fixed and non-positive too (one
+// insertion serves both). midpoint[e]: the vertex inserted on source edge e, or -1. Returns the count added.
+int choose_fixed_face_chords(const DiskMesh& source, const std::vector<char>& pinned, const std::vector<Point2>& uv,
+                             std::vector<int>& midpoint, std::vector<InsertedVertex>& inserted) {
+  const MeshTopology& topo = source.topology;
+  const int nf = static_cast<int>(source.faces.size()), nv = static_cast<int>(source.vertices.size());
+  std::vector<char> bad(nf, 0);
+  for (int f = 0; f < nf; ++f) {
+    const Triangle& t = source.faces[f];
+    bad[f] = pinned[t[0]] && pinned[t[1]] && pinned[t[2]] && orientation_sign(uv[t[0]], uv[t[1]], uv[t[2]]) <= 0;
+  }
+  int added = 0;
+  for (int f = 0; f < nf; ++f) {
+    if (!bad[f]) continue;
+    int pick = -1, fallback = -1;
+    bool served = false;
+    for (int k = 0; k < 3; ++k) {
+      const int h = 3 * f + k, o = topo.opposite(h);
+      if (o < 0) continue;
+      if (midpoint[topo.edge(h)] >= 0) served = true;
+      if (fallback < 0) fallback = topo.edge(h);
+      if (pick < 0 && bad[MeshTopology::face_of(o)]) pick = topo.edge(h);
+    }
+    if (served) continue;
+    if (pick < 0) pick = fallback;
+    if (pick < 0) continue;  // a single triangle: nothing to split
+    const std::array<int, 2> ab = topo.edge_vertices(pick);
+    midpoint[pick] = nv + static_cast<int>(inserted.size());
+    inserted.push_back({ab[0], ab[1], 0.5});
+    ++added;
+  }
+  return added;
+}
+
+// The source faces with their split edges: 2, 3 or 4 triangles each, corners in the original order, no
+// triangle with its three corners on one original edge.
+std::vector<Triangle> split_faces(const DiskMesh& source, const std::vector<int>& midpoint) {
+  const MeshTopology& topo = source.topology;
+  std::vector<Triangle> out;
+  for (int f = 0; f < static_cast<int>(source.faces.size()); ++f) {
+    const Triangle& t = source.faces[f];
+    std::array<int, 3> m;  // m[k]: midpoint on edge (t[k], t[k+1]), or -1
+    int count = 0;
+    for (int k = 0; k < 3; ++k) count += (m[k] = midpoint[topo.edge(3 * f + k)]) >= 0;
+    if (count == 0) {
+      out.push_back(t);
+    } else if (count == 3) {
+      out.push_back({t[0], m[0], m[2]});
+      out.push_back({m[0], t[1], m[1]});
+      out.push_back({m[2], m[1], t[2]});
+      out.push_back({m[0], m[1], m[2]});
+    } else if (count == 1) {
+      const int k = m[0] >= 0 ? 0 : m[1] >= 0 ? 1 : 2;
+      out.push_back({t[k], m[k], t[(k + 2) % 3]});
+      out.push_back({m[k], t[(k + 1) % 3], t[(k + 2) % 3]});
+    } else {  // two: edge u is whole, the corner w opposite it has both its edges split
+      const int u = m[0] < 0 ? 0 : m[1] < 0 ? 1 : 2;
+      const int c0 = t[u], c1 = t[(u + 1) % 3], w = t[(u + 2) % 3], m1 = m[(u + 1) % 3], m2 = m[(u + 2) % 3];
+      out.push_back({m1, w, m2});
+      out.push_back({c0, c1, m1});
+      out.push_back({c0, m1, m2});
+    }
+  }
+  return out;
+}
+
 }  // namespace
+
+RefinedMap untangled_map(const DiskMesh& source, Untangling& u) {
+  RefinedMap m;
+  m.vertices = source.vertices;
+  for (const InsertedVertex& iv : u.inserted) m.vertices.push_back(lerp(source.vertices[iv.a], source.vertices[iv.b], iv.t));
+  m.faces = u.faces.empty() ? source.faces : u.faces;
+  m.inserted = u.inserted;
+  m.uv = std::move(u.uv);
+  return m;
+}
 
 Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const BoundaryPolygon& polygon,
                     const std::vector<int>& rotation, const std::vector<Point2>& composed_uv,
@@ -37,65 +122,133 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
     out.outcome = "not needed: the composed map has no flipped triangle";
     return out;
   }
-  std::vector<char> pinned(source.vertices.size(), 0);
+  const int nv = static_cast<int>(source.vertices.size());
+  std::vector<char> pinned(nv, 0);
   for (int v : loop) pinned[v] = 1;
-  // A face with three boundary corners (an ear, or a triangle whose edges all join boundary vertices) cannot
-  // change: if it is not positive, no motion of the interior helps, and refinement must split it.
-  for (const Triangle& t : source.faces)
-    if (pinned[t[0]] && pinned[t[1]] && pinned[t[2]] && orientation_sign(composed_uv[t[0]], composed_uv[t[1]], composed_uv[t[2]]) <= 0) {
-      out.outcome = "not attempted: a face with three boundary corners is not positive";
-      return out;
+  std::vector<Point2> uv = composed_uv;
+  std::vector<Point3> shape = rest ? *rest : source.vertices;
+  std::vector<int> midpoint(source.topology.edge_count(), -1);
+  // New midpoints start at the middle of their chord's image; they are free, like interior vertices.
+  auto add_midpoints = [&](std::size_t from) {
+    for (std::size_t i = from; i < out.inserted.size(); ++i) {
+      const InsertedVertex& iv = out.inserted[i];
+      uv.push_back({0.5 * (uv[iv.a].x + uv[iv.b].x), 0.5 * (uv[iv.a].y + uv[iv.b].y)});
+      shape.push_back(lerp(shape[iv.a], shape[iv.b], iv.t));
+      pinned.push_back(0);
     }
-  detail::UvDescent descent(rest ? *rest : source.vertices, source.faces, pinned, shoelace(polygon.vertices));
-  if (descent.free_vertices() == 0) {
+    out.faces = out.inserted.empty() ? std::vector<Triangle>{} : split_faces(source, midpoint);
+  };
+  choose_fixed_face_chords(source, pinned, composed_uv, midpoint, out.inserted);
+  add_midpoints(0);
+  if (std::count(pinned.begin(), pinned.end(), 0) == 0) {
     out.outcome = "not attempted: no interior vertex";
     return out;
   }
   out.attempted = true;
-  std::vector<Point2> uv = composed_uv;
   detail::DescentSettings s;
   s.energy = detail::UvEnergy::untangle;
   s.flip_free = false;
   s.max_iterations = kStepsPerRound;
   s.relative_tolerance = 1e-9;
   s.cancel = cancel;
-  // Garanzha et al. 2021, sec. 3: start with eps of the order of the worst determinant, then after each
-  // minimization lower it by a factor that follows the energy's progress (sigma), keeping eps large enough
-  // that chi stays well above zero on the worst triangle; once every det J > 0, eps becomes tiny.
-  double dmin = descent.min_det(uv);
-  // Unlike the paper's arbitrary starts, the composed map is nearly injective (few folded triangles, some of
-  // them badly): eps of the order of the worst det would make chi nearly constant, the energy a plain
-  // Dirichlet energy, and throw that start away (on a 1.5-turn strip: 23 flips became 208). eps is capped at
-  // 0.1 (det J is about 1 for an area-preserving map, the rest shapes being scaled to the uv area).
-  s.epsilon = dmin > 0 ? 1e-10 : std::min(std::sqrt(1e-8 + 0.04 * dmin * dmin), kMaxStartEpsilon);
-  double e_prev = descent.energy(uv, s);
-  for (out.rounds = 0; out.rounds < kRounds && out.iterations < kStepsInAll;) {
-    check_cancel(cancel);
-    const detail::DescentOutcome step = descent.minimize(uv, s);
-    ++out.rounds;
-    out.iterations += step.iterations;
-    dmin = descent.min_det(uv);
-    if (dmin > 0) {
-      out.flipped_after = count_non_positive(uv, source.faces);
-      if (out.flipped_after == 0) break;
+  // Steps in all, fewer on large meshes (a step costs a pass over the faces): a case the untangler cannot
+  // solve within them goes to refinement.
+  const int steps_in_all =
+      std::max(kMinStepsInAll, std::min(kStepsInAll, static_cast<int>(kFaceStepsInAll / std::max<std::size_t>(source.faces.size(), 1))));
+  // One run of Garanzha et al. 2021 from `x`, until every face is positive or the step budget is spent.
+  auto run = [&](detail::UvDescent& descent, const std::vector<Triangle>& faces, std::vector<Point2>& x, int budget) {
+    // Sec. 3: start with eps of the order of the worst determinant, then after each minimization lower it by a
+    // factor that follows the energy's progress (sigma), keeping eps large enough that chi stays well above
+    // zero on the worst triangle; once every det J > 0, eps becomes tiny.
+    double dmin = descent.min_det(x);
+    // Unlike the paper's arbitrary starts, the composed map is nearly injective (few folded triangles, some
+    // of them badly): eps of the order of the worst det would make chi nearly constant, the energy a plain
+    // Dirichlet energy, and throw that start away (on a 1.5-turn strip: 23 flips became 208). eps is capped
+    // at 0.1 (det J is about 1 for an area-preserving map, the rest shapes being scaled to the uv area).
+    s.epsilon = dmin > 0 ? 1e-10 : std::min(std::sqrt(1e-8 + 0.04 * dmin * dmin), kMaxStartEpsilon);
+    double e_prev = descent.energy(x, s);
+    for (int used = 0, rounds = 0; rounds < kRounds && used < budget;) {
+      check_cancel(cancel);
+      s.max_iterations = std::min(kStepsPerRound, budget - used);
+      const detail::DescentOutcome step = descent.minimize(x, s);
+      ++rounds;
+      ++out.rounds;
+      used += step.iterations;
+      out.iterations += step.iterations;
+      dmin = descent.min_det(x);
+      if (dmin > 0 && count_non_positive(x, faces) == 0) return 0;
+      if (step.iterations == 0) break;  // stalled
+      const double e = descent.energy(x, s);
+      const double sigma = std::max(1 - e / e_prev, 0.1);
+      const double mu = (1 - sigma) * detail::regularized_det(dmin, s.epsilon);
+      s.epsilon = dmin < mu ? 2 * std::sqrt(mu * (mu - dmin)) : 1e-10;
+      e_prev = descent.energy(x, s);
     }
-    const double e = descent.energy(uv, s);
-    const double sigma = std::max(1 - e / e_prev, 0.1);
-    const double mu = (1 - sigma) * detail::regularized_det(dmin, s.epsilon);
-    s.epsilon = dmin < mu ? 2 * std::sqrt(mu * (mu - dmin)) : 1e-10;
-    e_prev = descent.energy(uv, s);
+    return count_non_positive(x, faces);
+  };
+  const double uv_area = shoelace(polygon.vertices);
+  for (int pass = 0;; ++pass) {
+    const std::vector<Triangle>& faces = out.faces.empty() ? source.faces : out.faces;
+    detail::UvDescent descent(shape, faces, pinned, uv_area);
+    if (pass == 0) {
+      // Two starts: the composed map, and the harmonic map with the boundary pinned (Garanzha et al.'s usual
+      // start). The composed map is the better one when it folds little; when the source is a long corridor
+      // the harmonic intermediate maps crowd it exponentially and it folds in thousands of places, while the
+      // pinned boundary keeps the harmonic start close to the polygon. The one with fewer non-positive faces
+      // goes first (with half the steps); the other gets what is left.
+      std::vector<Point2> other = uv;
+      descent.harmonic(other);
+      if (count_non_positive(other, faces) < count_non_positive(uv, faces)) std::swap(uv, other);
+      out.flipped_after = run(descent, faces, uv, steps_in_all / 2);
+      if (out.flipped_after > 0 && out.iterations < steps_in_all) {
+        const int left = run(descent, faces, other, (steps_in_all - out.iterations) / 2);
+        if (left < out.flipped_after) {
+          out.flipped_after = left;
+          uv.swap(other);
+        }
+      }
+    } else {
+      out.flipped_after = run(descent, faces, uv, steps_in_all - out.iterations);
+    }
+    if (out.flipped_after == 0 || pass == kSplitPasses || out.iterations >= steps_in_all) break;
+    // Still folded: a chord (an interior edge joining two boundary vertices) is a fixed straight segment, and
+    // one that leaves the polygon cannot be an edge of any injective map there. Split the unsplit chords of
+    // the faces still not positive, and go on from this map (paper-4 refinement stays the last resort).
+    const std::size_t before = out.inserted.size();
+    for (const Triangle& t : faces) {
+      if (orientation_sign(uv[t[0]], uv[t[1]], uv[t[2]]) > 0) continue;
+      for (int k = 0; k < 3; ++k) {
+        const int a = t[k], b = t[(k + 1) % 3];
+        if (a >= nv || b >= nv || !pinned[a] || !pinned[b]) continue;
+        const int e = source.topology.find_edge(a, b);
+        if (e < 0 || source.topology.is_boundary_edge(e) || midpoint[e] >= 0) continue;
+        midpoint[e] = nv + static_cast<int>(out.inserted.size());
+        out.inserted.push_back({std::min(a, b), std::max(a, b), 0.5});
+      }
+    }
+    if (out.inserted.size() == before) break;
+    add_midpoints(before);
   }
-  out.flipped_after = count_non_positive(uv, source.faces);
+  const std::vector<Triangle>& faces = out.faces.empty() ? source.faces : out.faces;
   if (out.flipped_after > 0) {
-    out.outcome = "failed: " + std::to_string(out.flipped_after) + " faces still not positive after " +
-                  std::to_string(out.rounds) + " rounds";
+    // Faces whose free corners all have only pinned neighbours: their stars are fixed polygons, and when such
+    // a star has an empty kernel no position of its centre is positive (then only insertions help).
+    std::vector<char> caged(pinned.size(), 1);
+    for (const Triangle& t : faces)
+      for (int k = 0; k < 3; ++k)
+        if (!pinned[t[k]] && (!pinned[t[(k + 1) % 3]] || !pinned[t[(k + 2) % 3]])) caged[t[k]] = 0;
+    int stuck = 0;
+    for (const Triangle& t : faces)
+      if (orientation_sign(uv[t[0]], uv[t[1]], uv[t[2]]) <= 0 && caged[t[0]] && caged[t[1]] && caged[t[2]]) ++stuck;
+    out.outcome = "failed: " + std::to_string(out.flipped_after) + " faces still not positive (" +
+                  std::to_string(stuck) + " around vertices with only boundary neighbours) after " +
+                  std::to_string(out.rounds) + " rounds, " + std::to_string(out.iterations) + " steps, " +
+                  std::to_string(out.inserted.size()) + " chords split";
     return out;
   }
   // Every face positive; the angle sums and rotation indices are verify's checks, run on the candidate.
-  RefinedMap candidate;
-  candidate.vertices = source.vertices;
-  candidate.faces = source.faces;
-  candidate.uv = uv;
+  out.uv = uv;
+  RefinedMap candidate = untangled_map(source, out);
   try {
     verify_map(source, loop, polygon, rotation, candidate);
   } catch (const InternalError& e) {
@@ -103,8 +256,9 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
     return out;
   }
   out.succeeded = true;
-  out.outcome = "untangled in " + std::to_string(out.rounds) + " rounds";
-  out.uv = std::move(uv);
+  out.outcome = "untangled in " + std::to_string(out.rounds) + " rounds, " + std::to_string(out.iterations) + " steps" +
+                (out.inserted.empty() ? "" : " after splitting " + std::to_string(out.inserted.size()) + " chords");
+  out.uv = std::move(candidate.uv);
   return out;
 }
 

@@ -10,6 +10,11 @@
 // progress (their section 3), with L-BFGS (engine/detail/uv_descent.h). The energy is per triangle, so
 // self-overlapping and weakly self-overlapping polygons need nothing special.
 //
+// Faces with three boundary corners (ears, and triangles whose edges all join boundary vertices) cannot move:
+// when one is not positive, no motion of the interior helps. Such a face gets one of its chords (interior
+// edges joining two boundary vertices) split at its midpoint, the fewest insertions that give every such face
+// a free vertex (a chord shared by two such faces first); the untangler then moves the inserted vertices too.
+//
 // Acceptance: the untangled map is returned only when every face is strictly positive (exact predicate) and
 // the verify stage's checks pass on it (one full turn at every interior vertex, each boundary vertex's
 // rotation index as classified), i.e. it is a valid answer without any inserted vertex.
@@ -22,6 +27,7 @@
 #include "engine/cancel.h"
 #include "engine/disk_mesh.h"
 #include "engine/geometry.h"
+#include "engine/refine.h"
 
 namespace lipmap {
 
@@ -33,8 +39,15 @@ struct Untangling {
   int rounds = 0;          // values of eps tried
   int iterations = 0;      // L-BFGS steps over all rounds
   std::string outcome;     // one line: why it was not attempted, or how it ended
-  std::vector<Point2> uv;  // the untangled map (one per source vertex) when succeeded
+  // The mesh untangling ran on: the source faces (faces empty, inserted empty), or the source with chords of
+  // fixed non-positive faces split at their midpoints (inserted[i] is vertex source.vertices.size() + i).
+  std::vector<InsertedVertex> inserted;
+  std::vector<Triangle> faces;
+  std::vector<Point2> uv;  // the untangled map (one per vertex of that mesh) when succeeded
 };
+
+// The untangled answer as a refined map (the source mesh, or its chord splits), uv moved out of u.
+RefinedMap untangled_map(const DiskMesh& source, Untangling& u);
 
 // composed_uv: the vertex-wise map after relocation, boundary vertex loop[k] at polygon.vertices[k].
 // rotation: the classification's R_k. rest: the triangles' rest shapes, one point per source vertex (a

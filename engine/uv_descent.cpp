@@ -276,6 +276,26 @@ UvDescent::UvDescent(const std::vector<Point3>& vertices, const std::vector<Tria
     : impl_(std::make_unique<Impl>(vertices, faces, pinned, uv_area)) {}
 UvDescent::~UvDescent() = default;
 
+void UvDescent::harmonic(std::vector<Point2>& uv) const {
+  const Impl& m = *impl_;
+  const int n = static_cast<int>(m.free_vertex.size());
+  if (n == 0 || !m.factored) return;
+  // The Dirichlet energy sum_t A_t |J_t|^2 is quadratic with Hessian 2 L: one Newton step from any uv is its
+  // minimizer. Its gradient is 2 sum_t A_t J_t B_t^T scattered to the corners.
+  Vec2s grad = Vec2s::Zero(n, 2);
+  for (int f : m.active) {
+    const M2 dD = mul_bt(mul(m.edges(uv, f), m.rest_inverse[f]), m.rest_inverse[f]);
+    const int i0 = m.index[m.faces[f][0]], i1 = m.index[m.faces[f][1]], i2 = m.index[m.faces[f][2]];
+    const double w = m.weight[f];
+    if (i1 >= 0) { grad(i1, 0) += w * dD.a; grad(i1, 1) += w * dD.c; }
+    if (i2 >= 0) { grad(i2, 0) += w * dD.b; grad(i2, 1) += w * dD.d; }
+    if (i0 >= 0) { grad(i0, 0) -= w * (dD.a + dD.b); grad(i0, 1) -= w * (dD.c + dD.d); }
+  }
+  // grad holds half the gradient, L is half the Hessian: the step is -L^-1 grad.
+  const Vec2s step = m.laplacian_factor.solve(grad);
+  m.apply(std::vector<Point2>(uv), step, -1.0, uv);
+}
+
 int UvDescent::free_vertices() const { return static_cast<int>(impl_->free_vertex.size()); }
 
 double UvDescent::energy(const std::vector<Point2>& uv, const DescentSettings& settings) const {

@@ -68,6 +68,9 @@ public:
   double energy(const std::vector<Point2>& uv, const DescentSettings& settings) const;
   // The smallest det J over the faces (floating point; the exact test is orientation_sign).
   double min_det(const std::vector<Point2>& uv) const;
+  // Replaces the free vertices' uv by the harmonic map of the rest mesh with the pinned ones as they are (the
+  // minimizer of the Dirichlet energy: one solve with the factorized Laplacian; a Tutte-type start).
+  void harmonic(std::vector<Point2>& uv) const;
   // Lowers the energy from uv (free vertices only). With flip_free, uv must start with every face positive.
   DescentOutcome minimize(std::vector<Point2>& uv, const DescentSettings& settings);
 
