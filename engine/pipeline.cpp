@@ -10,6 +10,7 @@
 
 #include "engine/compose.h"
 #include "engine/convex_domain.h"
+#include "engine/extremal_relax.h"
 #include "engine/flip_check.h"
 #include "engine/reference_metric.h"
 #include "engine/target_mesh.h"
@@ -171,8 +172,14 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
     if (options.refine && !out.metric.reproduced && options.method == MapMethod::extremal) {
       // The optimize stage lowers an average energy (MIPS, symmetric Dirichlet), which would pull the map away
       // from the extremal one (least worst-case distortion) that method extremal asked for.
+      // Instead, the extremal map's own criterion: max K lowered by local minimax moves (engine/extremal_relax.h).
       out.optimization.energy = options.optimize;
-      out.optimization.outcome = "not run: method extremal keeps the extremal map";
+      out.optimization.outcome = "not run: method extremal lowers max K instead (diagnostics.extremal.relaxation)";
+      out.extremal.relaxation = run_stage(Stage::optimize, time.optimize, cancel, progress, [&] {
+        ExtremalRelaxOptions relax;
+        relax.time_budget_ms = options.time_budget_ms;
+        return relax_max_dilatation(work_mesh, input.boundary.loop, out.map, relax, cancel);
+      });
     } else if (options.refine && !out.metric.reproduced) {
       // With a metric the rest shapes are T's triangles (inserted vertices at T's lerp along their edge), so
       // the default optimization lowers the distortion relative to T: it moves the answer towards T's shape.

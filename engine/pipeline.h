@@ -12,6 +12,7 @@
 #include "engine/classify.h"
 #include "engine/disk_mesh.h"
 #include "engine/error.h"
+#include "engine/extremal_relax.h"
 #include "engine/intermediate_map.h"
 #include "engine/optimize.h"
 #include "engine/parametrize_options.h"
@@ -55,6 +56,8 @@ struct ExtremalReport {
   double k = 0;                     // |mu| of the chosen iterate's coefficient (0: the harmonic start)
   int iterations = 0, chosen_iteration = 0, folded_iterates = 0;
   double harmonic_max_dilatation = 1, max_dilatation = 1;  // max K of h_s->i: harmonic start, answer
+  // The refined map's max K lowered by local minimax moves (engine/extremal_relax.h), in place of optimize.
+  ExtremalRelaxation relaxation;
 };
 
 struct ParametrizeResult {

@@ -658,7 +658,13 @@ ordered_json detail::result_json(const lipmap::ParametrizeResult& r, bool big) {
                      {"chosen_iteration", e.chosen_iteration},
                      {"folded_iterates", e.folded_iterates},
                      {"harmonic_max_dilatation", finite_or_null(e.harmonic_max_dilatation)},
-                     {"max_dilatation", finite_or_null(e.max_dilatation)}};
+                     {"max_dilatation", finite_or_null(e.max_dilatation)},
+                     {"relaxation", {{"ran", e.relaxation.ran},
+                                     {"sweeps", e.relaxation.sweeps},
+                                     {"moves", e.relaxation.moves},
+                                     {"free_vertices", e.relaxation.free_vertices},
+                                     {"max_k_before", finite_or_null(e.relaxation.max_before)},
+                                     {"max_k_after", finite_or_null(e.relaxation.max_after)}}}};
   }
   d["distortion"] = distortion_json(r.distortion);
   if (r.metric.given) {

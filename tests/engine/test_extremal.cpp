@@ -13,6 +13,12 @@
 //   ExtremalPipeline      a square grid onto a cross, and shared meshes onto generated targets: every answer
 //                         passes the contract; max K below the plain harmonic map's; interior (2 rings from the
 //                         boundary) max K / mean K reported; the JSON codec reads and writes the method.
+//   ExtremalFig18         the paper's Fig. 18 setting: a square grid onto a cross, the reference T the extremal
+//                         map with flips injected near the cross's four reflex corners, T given as the metric
+//                         (paper 5.2): the answer is locally injective (contract), at most 10 vertices are
+//                         inserted, and its K histogram is close to the reference's: total variation distance
+//                         (half the L1 distance of the area-weighted histograms, bins 1, 1.1, 1.25, 1.5, 2, 3,
+//                         5, 10, inf) to the unflipped extremal map at most 0.15.
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -28,6 +34,7 @@
 #include "engine/teichmuller.h"
 #include "engine/validate.h"
 #include "server/codec/json_codec.h"
+#include "tests/support/flip_injection.h"
 #include "tests/support/grid_cells.h"
 #include "tests/support/pipeline_cases.h"
 #include "tests/support/triangulation_checker.h"
@@ -396,6 +403,69 @@ TEST(ExtremalPipeline, SharedMeshesOntoGeneratedTargetsPassTheContract) {
   }
   std::printf("[ extremal ] max K below the harmonic map's in %d of %d cases\n", lower_max, cases);
   EXPECT_GE(cases, 20);
+}
+
+// Area-weighted histogram of K (face_k above), bins [1, 1.1), [1.1, 1.25), ... [10, inf]; sums to 1.
+std::vector<double> k_histogram(const std::vector<Point3>& p, const std::vector<Triangle>& faces,
+                                const std::vector<Point2>& uv) {
+  static const double edges[] = {1.1, 1.25, 1.5, 2, 3, 5, 10};
+  std::vector<double> h(8, 0.0);
+  double total = 0;
+  for (const Triangle& t : faces) {
+    const double k = face_k(p[t[0]], p[t[1]], p[t[2]], uv[t[0]], uv[t[1]], uv[t[2]]);
+    const Point3 &a = p[t[0]], &b = p[t[1]], &c = p[t[2]];
+    const double e1[3] = {b.x - a.x, b.y - a.y, b.z - a.z}, e2[3] = {c.x - a.x, c.y - a.y, c.z - a.z};
+    const double w = 0.5 * std::sqrt(std::pow(e1[1] * e2[2] - e1[2] * e2[1], 2) + std::pow(e1[2] * e2[0] - e1[0] * e2[2], 2) +
+                                     std::pow(e1[0] * e2[1] - e1[1] * e2[0], 2));
+    std::size_t bin = 0;
+    while (bin < 7 && k >= edges[bin]) ++bin;
+    h[bin] += w;
+    total += w;
+  }
+  for (double& x : h) x /= total;
+  return h;
+}
+
+TEST(ExtremalFig18, ExtremalReferenceWithFlipsNearTheCornersIsRepairedWithFewInsertionsAndItsKHistogram) {
+  const Grid g = flat_square(24);
+  const std::vector<Point2> positions = cross_positions(g.loop.size());
+  const ParametrizeResult e = run(g.raw(), positions, MapMethod::extremal);
+  ASSERT_TRUE(e.map.inserted.empty());  // the reference lives on the source mesh itself
+  const std::vector<double> reference_histogram = k_histogram(g.vertices, g.faces, e.map.uv);
+  const std::vector<Point2>& outline = cross_outline();
+  const Point2 reflex[4] = {outline[2], outline[5], outline[8], outline[11]};
+  // Vertices farther than 0.35 from every reflex corner are passed as "boundary": inject_flips leaves them.
+  std::vector<int> held = g.loop;
+  for (std::size_t v = 0; v < g.vertices.size(); ++v) {
+    double d = 1e9;
+    for (const Point2& c : reflex) d = std::min(d, std::hypot(e.map.uv[v].x - c.x, e.map.uv[v].y - c.y));
+    if (d > 0.35) held.push_back(static_cast<int>(v));
+  }
+  int cases = 0;
+  for (unsigned seed : {1u, 2u, 3u, 4u}) {
+    std::vector<Point2> T = e.map.uv;
+    const int folded = flipinject::inject_flips(T, g.faces, held, 4 + 2 * static_cast<int>(seed), 16, seed);
+    ASSERT_GT(folded, 0) << seed;
+    RawBoundary b;
+    b.positions = positions;
+    ParametrizeOptions o;
+    o.metric = T;
+    const ParametrizeResult r = parametrize(g.raw(), b, o);
+    mapcheck::Result res{r.map.vertices, r.map.faces, r.map.uv, {}};
+    for (const InsertedVertex& v : r.map.inserted) res.inserted.push_back({v.a, v.b, v.t});
+    const mapcheck::Report rep = mapcheck::check_map({g.vertices, g.faces, g.loop}, positions, res, nullptr);
+    EXPECT_TRUE(rep.ok()) << seed << "\n" << rep.str();
+    EXPECT_EQ(flipinject::count_folded(r.map.uv, r.map.faces), 0) << seed;
+    EXPECT_LE(r.map.inserted.size(), 10u) << seed;
+    const std::vector<double> h = k_histogram(r.map.vertices, r.map.faces, r.map.uv);
+    double tv = 0;
+    for (std::size_t i = 0; i < h.size(); ++i) tv += 0.5 * std::fabs(h[i] - reference_histogram[i]);
+    std::printf("[ fig18 ] seed %u: %d folded in T, %zu inserted, K histogram TV distance to the extremal map %.4f\n",
+                seed, folded, r.map.inserted.size(), tv);
+    EXPECT_LE(tv, 0.15) << seed;
+    ++cases;
+  }
+  EXPECT_EQ(cases, 4);
 }
 
 TEST(ExtremalPipeline, TheJsonCodecReadsTheMethodAndWritesItsDiagnostics) {
