@@ -1,4 +1,4 @@
-// Stage "direct map" (issue 13): when the boundary polygon P is strictly convex, one map of the source mesh
+// Stage "direct map": when the boundary polygon P is strictly convex, one map of the source mesh
 // straight onto P replaces the paper's two maps and their composition (paper 4). Tutte's theorem (and
 // Floater's for mean-value weights) makes a map with positive weights onto a strictly convex polygon a
 // bijection; the composition through the disk would only add a second solve, a target mesh and rounding.
