@@ -10,6 +10,7 @@
 
 #include "engine/compose.h"
 #include "engine/convex_domain.h"
+#include "engine/direct_map.h"
 #include "engine/extremal_relax.h"
 #include "engine/flip_check.h"
 #include "engine/reference_metric.h"
@@ -279,6 +280,29 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
       }
     }
     out.metric.path = "composed";
+  }
+
+  // A strictly convex P: one map straight onto it (engine/direct_map.h), kept only when exactly verified;
+  // otherwise the paper's path below.
+  if (!metric && options.refine && options.method != MapMethod::extremal &&
+      strictly_convex(work_polygon, out.classification.rotation_indices)) {
+    DirectMap direct = run_stage(Stage::intermediate_maps, time.intermediate_maps, cancel, progress, [&] {
+      return map_onto_convex_polygon(work_mesh, input.boundary.loop, work_polygon, options.method, cancel);
+    });
+    const bool valid = direct.flipped == 0 && run_stage(Stage::verify, time.verify, cancel, progress, [&] {
+      try {
+        verify_map(work_mesh, input.boundary.loop, work_polygon, out.classification.rotation_indices, direct.map);
+      } catch (const InternalError&) {
+        return false;
+      }
+      return true;
+    });
+    if (valid) {
+      out.map = std::move(direct.map);
+      out.source_map_solution = direct.solution;
+      finish();
+      return out;
+    }
   }
 
   const TargetMesh target = run_stage(Stage::target_mesh, time.target_mesh, cancel, progress, [&] {

@@ -545,6 +545,11 @@ void verify_target_mesh(const BoundaryPolygon& polygon, const std::vector<Triang
   verify_mesh(polygon, coarse, mesh, nullptr);
 }
 
+int target_triangle_cap(int polygon_vertices) {
+  const long long by_polygon = static_cast<long long>(kTargetCapPerVertex) * std::max(0, polygon_vertices);
+  return static_cast<int>(std::min<long long>(std::max<long long>(kTargetCapFloor, by_polygon), 20000000));
+}
+
 TargetMesh build_target_mesh(const BoundaryPolygon& polygon, const std::vector<Triangle>& coarse,
                              const TargetMeshOptions& options, const CancelToken* cancel) {
   const auto t0 = Clock::now();
@@ -560,7 +565,9 @@ TargetMesh build_target_mesh(const BoundaryPolygon& polygon, const std::vector<T
   for (int k = 0; k < n; ++k)
     if (!std::isfinite(P[k].x) || !std::isfinite(P[k].y))
       throw InputError("polygon_non_finite", "polygon vertex has a non-finite coordinate", "polygon_vertex", k);
-  const double wanted = options.density * (options.source_triangles > 0 ? options.source_triangles : 2.0 * n);
+  double source = options.source_triangles > 0 ? options.source_triangles : 2.0 * n;
+  if (options.cap_to_polygon) source = std::min(source, static_cast<double>(target_triangle_cap(n)));
+  const double wanted = options.density * source;
   constexpr double kMaxTarget = 2e7;
   if (wanted > kMaxTarget)
     throw InputError("target_density_invalid", "target mesh would exceed 20 million triangles", "options");

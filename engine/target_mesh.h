@@ -41,10 +41,13 @@
 namespace lipmap {
 
 struct TargetMeshOptions {
-  // Target triangle count ~ density * source_triangles (paper: same density as the source, density 1).
+  // Target triangle count ~ density * min(source_triangles, target_triangle_cap(n)) (paper: same density as
+  // the source, density 1; the cap only binds for large sources, see target_triangle_cap).
   double density = 1.0;
   // Triangles of the source mesh; 0: use 2 * n (n = polygon vertices).
   int source_triangles = 0;
+  // Apply target_triangle_cap (false: the paper's rule alone, for benchmarks comparing the two).
+  bool cap_to_polygon = true;
   // Smallest angle the mesher aims for away from P's boundary (CGAL's bound; at most 30 degrees).
   double min_angle_deg = 20;
 };
@@ -64,6 +67,18 @@ struct TargetMesh {
   double partition_ms = 0, mesh_ms = 0, verify_ms = 0;
   double ms = 0;                 // whole stage
 };
+
+// The most triangles M_t needs for a polygon of n vertices: max(kTargetCapFloor, kTargetCapPerVertex * n).
+// Paper 4, "Meshing the target domain": the bijectivity of the result does not depend on how coarse or fine
+// M_t is, and its resolution has little effect on the map's quality (paper Fig. 8). What the composition
+// needs is resolution where P needs it, near P's vertices and edges, and the mesher grades from P's edge
+// lengths inwards by itself; a source of 1M triangles does not need a 1M-triangle target, whose harmonic map
+// would cost as much as the source's. The floor keeps every source up to 20k triangles at the paper's
+// density (answers unchanged there); the inserted-vertex counts of bench_pipeline did not change with the
+// cap binding at 10k (docs/architecture.md, "Target mesh size", has the figures).
+inline constexpr int kTargetCapFloor = 20000;
+inline constexpr int kTargetCapPerVertex = 32;
+int target_triangle_cap(int polygon_vertices);
 
 // Throws InputError for bad options (code target_density_invalid, source_triangles_invalid,
 // min_angle_invalid) or a polygon with fewer than 3 vertices / non-finite coordinates; InternalError when
