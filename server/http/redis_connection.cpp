@@ -81,22 +81,8 @@ RedisConnection::~RedisConnection() {
 }
 
 Reply RedisConnection::command(const std::vector<std::string>& args) {
-  if (broken_) throw QueueUnavailable("the Redis connection is broken");
-  std::vector<const char*> argv;
-  std::vector<size_t> lengths;
-  argv.reserve(args.size());
-  lengths.reserve(args.size());
-  for (const std::string& a : args) {
-    argv.push_back(a.data());
-    lengths.push_back(a.size());
-  }
-  Reply r(static_cast<redisReply*>(redisCommandArgv(c_, static_cast<int>(argv.size()), argv.data(), lengths.data())));
-  if (!r || c_->err) {
-    broken_ = true;
-    throw QueueUnavailable(std::string("Redis: ") + (c_->err ? c_->errstr : "no reply"));
-  }
-  if (r->type == REDIS_REPLY_ERROR) throw ReplyError("Redis " + args[0] + ": " + std::string(r->str, r->len));
-  return r;
+  std::vector<Reply> replies = pipeline({args});
+  return std::move(replies.front());
 }
 
 std::vector<Reply> RedisConnection::pipeline(const std::vector<std::vector<std::string>>& commands) {
