@@ -127,13 +127,23 @@ validates() {  # validates SCHEMA FILE
 }
 
 @test "--progress: one line per stage start and end, then a summary, on stderr" {
-  lipmap map "$T/pyramid.obj" --boundary "$T/square.json" -o "$T/out.obj" --progress
+  # A non-convex boundary (a dart, reflex at its third corner): every stage of the paper's path.
+  echo '{"positions": [[0, 0], [2, 0], [1, 0.8], [0, 2]]}' >"$T/dart.json"
+  lipmap map "$T/pyramid.obj" --boundary "$T/dart.json" -o "$T/out.obj" --progress
   [ "$status" -eq 0 ]
   [ -z "$output" ]
   for stage in validate classify target_mesh intermediate_maps compose untangle refine optimize verify quality; do
     grep -q "^lipmap: progress: $stage \.\.\.$" <<<"$stderr"
     grep -q "^lipmap: progress: $stage done in " <<<"$stderr"
   done
+  grep -q '^lipmap: done: verdict simple, ' <<<"$stderr"
+  # A strictly convex one (the square): the direct map onto it, no target mesh and no composition.
+  lipmap map "$T/pyramid.obj" --boundary "$T/square.json" -o "$T/out.obj" --progress
+  [ "$status" -eq 0 ]
+  for stage in validate classify intermediate_maps optimize verify quality; do
+    grep -q "^lipmap: progress: $stage done in " <<<"$stderr"
+  done
+  [ "$(grep -c -e "^lipmap: progress: target_mesh" -e "^lipmap: progress: compose" <<<"$stderr")" -eq 0 ]
   grep -q '^lipmap: done: verdict simple, 5 vertices (0 inserted), 4 triangles' <<<"$stderr"
 }
 

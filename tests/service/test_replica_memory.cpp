@@ -1,7 +1,11 @@
-// server/http/redis_jobs.h LocalResults (the results a replica of the shared queue keeps in memory): random
+// server/http/replica_memory.h. LocalResults (the results a replica of the shared queue keeps in memory): random
 // sequences of put, get and erase against a least-recently-used model written here, with both bounds (count and
-// bytes; a result over the byte bound is not kept), and the retention time.
-#include "server/http/redis_jobs.h"
+// bytes; a result over the byte bound is not kept), and the retention time. Handoffs (the requests it accepted
+// and parsed): random put and take against a first-in-first-out model, with the count bound.
+#include "server/http/replica_memory.h"
+
+#include <deque>
+#include <map>
 
 #include <gtest/gtest.h>
 
@@ -95,6 +99,42 @@ TEST(LocalResults, AResultLargerThanTheByteBoundIsNotKeptAndEvictsNothing) {
   cache.put("large", ComputedResult{nullptr, nullptr, std::make_shared<const std::string>(11, 'x')});
   EXPECT_FALSE(cache.get("large").has_value());
   EXPECT_TRUE(cache.get("small").has_value());
+}
+
+TEST(Handoffs, RandomPutAndTakeAgainstAFifoModel) {
+  std::mt19937 rng(7);
+  for (std::size_t bound : {1u, 3u, 8u}) {
+    Handoffs h(bound);
+    std::deque<std::string> order;  // model: ids held, oldest first
+    std::map<std::string, const codec::ParametrizeRequest*> held;
+    int next = 0;
+    for (int step = 0; step < 2000; ++step) {
+      if (rng() % 2 == 0) {
+        const std::string id = "job" + std::to_string(next++);
+        auto request = std::make_shared<const codec::ParametrizeRequest>();
+        held[id] = request.get();
+        order.push_back(id);
+        h.put(id, {request, nullptr});
+        while (order.size() > bound) {
+          held.erase(order.front());
+          order.pop_front();
+        }
+      } else {
+        // Take a held id, one taken or dropped before, or one never put.
+        const int pick = next == 0 ? 0 : static_cast<int>(rng() % (next + 2));
+        const std::string id = "job" + std::to_string(pick);
+        const std::optional<Handoffs::Parsed> got = h.take(id);
+        auto it = held.find(id);
+        ASSERT_EQ(got.has_value(), it != held.end()) << id << " at step " << step;
+        if (got) {
+          EXPECT_EQ(got->request.get(), it->second);
+          held.erase(it);
+          order.erase(std::find(order.begin(), order.end(), id));
+        }
+      }
+      ASSERT_EQ(h.size(), held.size()) << "step " << step;
+    }
+  }
 }
 
 }  // namespace
