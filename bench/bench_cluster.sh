@@ -9,8 +9,8 @@
 # 1. What Redis adds to a job: the same 10k-triangle job (BENCH_GRID x BENCH_GRID grid, 2 (n-1)^2 triangles,
 #    an annulus sector wound 1.25 turns) on one process with the in-memory queue and on one replica with the
 #    shared queue, one job at a time, the two interleaved (A B, B A, ...) over BENCH_RUNS pairs so that the
-#    machine's drifting load falls on both alike. Medians of wall time (submit to result in hand, polled every
-#    2 ms) and server time (created_at to finished_at), and the median of the paired differences.
+#    machine's drifting load falls on both alike. Medians of wall time (submit to result in hand, awaited
+#    with long polls, GET /v1/jobs/{id}?wait=30) and server time (created_at to finished_at), and the median of the paired differences.
 # 2. Jobs per second behind nginx: the in-memory queue (1 process), the shared queue with 1 replica and with 2
 #    replicas (each pair of settings on its own Redis database, so that an idle replica takes nothing from the
 #    other's queue). BENCH_ROUNDS rounds, each giving BENCH_JOBS jobs of the same size at once to each setting

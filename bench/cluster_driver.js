@@ -3,13 +3,13 @@
 //
 //   node cluster_driver.js ab BODY PAIRS NAME_A=URL_A NAME_B=URL_B
 //     PAIRS pairs of one job at a time on A and on B, interleaved (A B, then B A, ...: a slow drift of the
-//     machine's load falls on both alike). Per job: POST /v1/jobs, poll every 2 ms until final, GET the result;
+//     machine's load falls on both alike). Per job: POST /v1/jobs, long polls (GET ?wait=30) until final, GET the result;
 //     wall time (submit to result in hand) and server time (created_at to finished_at). Prints each side's
 //     medians, and the median of the paired differences B - A.
 //   node cluster_driver.js throughput BODY JOBS ROUNDS NAME=URL ...
 //     ROUNDS rounds; in each, every target in turn (the order rotated each round) gets JOBS jobs submitted at
-//     once, then awaited one after the other (one poll at a time every 10 ms, so that polling takes little CPU
-//     from the workers). Jobs per second: JOBS / (first submission to last result in hand) on the client, and
+//     once, then awaited one after the other (one long poll at a time, so that polling takes little CPU from
+//     the workers). Jobs per second: JOBS / (first submission to last result in hand) on the client, and
 //     JOBS / (first created_at to last finished_at) on the server. Prints each round and each target's medians.
 // Every job must succeed (exit 1 otherwise).
 "use strict";
@@ -17,7 +17,6 @@ const fs = require("fs");
 
 const [mode, bodyFile, ...rest] = process.argv.slice(2);
 const body = fs.readFileSync(bodyFile);
-const sleep = (ms) => new Promise((r) => setTimeout(r, ms));
 const median = (xs) => {
   const s = [...xs].sort((a, b) => a - b);
   const m = Math.floor(s.length / 2);
@@ -31,9 +30,10 @@ async function submit(url) {
   if (r.status !== 202) throw new Error(`POST /v1/jobs: ${r.status} ${await r.text()}`);
   return (await r.json()).id;
 }
-async function finish(url, id, pollMs) {
+// The job's long polls (GET /v1/jobs/{id}?wait=30: answered as soon as the job ends) until it is final.
+async function finish(url, id) {
   for (;;) {
-    const j = await (await fetch(`${url}/v1/jobs/${id}`)).json();
+    const j = await (await fetch(`${url}/v1/jobs/${id}?wait=30`)).json();
     if (j.state === "succeeded") {
       const res = await fetch(`${url}/v1/jobs/${id}/result`);
       if (res.status !== 200) throw new Error(`result: ${res.status}`);
@@ -41,12 +41,11 @@ async function finish(url, id, pollMs) {
       return j;
     }
     if (j.state === "failed" || j.state === "cancelled") throw new Error(`job ${id} ${j.state}: ${JSON.stringify(j.error)}`);
-    await sleep(pollMs);
   }
 }
 async function oneJob(url) {
   const t0 = now();
-  const j = await finish(url, await submit(url), 2);
+  const j = await finish(url, await submit(url));
   return { wall: now() - t0, server: Date.parse(j.finished_at) - Date.parse(j.created_at) };
 }
 const pct = (d, base) => `${d >= 0 ? "+" : ""}${d.toFixed(1)} ms (${d >= 0 ? "+" : ""}${((100 * d) / base).toFixed(1)} %)`;
@@ -77,7 +76,7 @@ async function burst(url, jobs) {
   for (let i = 0; i < jobs; i++) ids.push(await submit(url));
   let first = Infinity, last = -Infinity;
   for (const id of ids) {
-    const j = await finish(url, id, 10);
+    const j = await finish(url, id);
     first = Math.min(first, Date.parse(j.created_at));
     last = Math.max(last, Date.parse(j.finished_at));
   }

@@ -112,6 +112,7 @@ const std::vector<ErrorInfo> kTable = {
 
     // ---- HTTP: routing, framing, media types, jobs ------------------------------------------------------
     {"bad_request", 400, kMalformed, kIn},
+    {"invalid_query_parameter", 400, kMalformed, kIn},
     {"not_found", 404, "Not found", kIn},
     {"job_not_found", 404, "Not found", kIn},
     {"method_not_allowed", 405, "Method not allowed", kIn},

@@ -242,6 +242,7 @@ bool HttpServer::shutdown() {
   // on its connection (cpp-httplib ends a connection once the listener is stopped).
   s.http.stop();
   service.draining = true;
+  service.waits.close();  // waiting polls answer now, with the job as it is
   // 2. Asynchronous jobs: once the listener is closed nobody can fetch their results, so they end now.
   service.jobs->cancel_unfinished(CancelReason::shutdown);
   // 3. Synchronous requests in flight: their clients are waiting; they get the grace period.

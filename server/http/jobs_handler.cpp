@@ -2,6 +2,8 @@
 // GET /v1/jobs/{id}/preview.svg. Where the jobs are kept and run is Service::jobs, a JobQueue (job_store.h):
 // the in-memory store (memory_jobs.h) or the shared queue of --queue-url (redis_jobs.h); these handlers only
 // speak to that interface.
+#include <algorithm>
+#include <charconv>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -79,6 +81,25 @@ std::variant<JobSnapshot, Answer> found_or_answer(Service& service, const std::s
 std::variant<JobSnapshot, Answer> lookup_job(Service& service, const std::string& id) {
   if (!looks_like_job_id(id)) return not_found(id);
   return found_or_answer(service, id, service.jobs->find(id));
+}
+
+// The `wait` query parameter of GET /v1/jobs/{id}: seconds (a decimal number, 0 to kMaxWaitSeconds) to wait
+// for the job to end; 0 when absent.
+constexpr double kMaxWaitSeconds = 30;  // below the 60 s read timeout of common proxies (nginx's default)
+
+std::variant<Clock::duration, Answer> wait_of(const httplib::Request& req) {
+  if (!req.has_param("wait")) return Clock::duration::zero();
+  const std::string text = req.get_param_value("wait");
+  double seconds = -1;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), seconds);
+  if (ec != std::errc() || end != text.data() + text.size() || !(seconds >= 0 && seconds <= kMaxWaitSeconds)) {
+    Answer a = problem_answer("invalid_query_parameter",
+                              "wait must be a number of seconds from 0 to " + seconds_text(kMaxWaitSeconds) + ", not " +
+                                  json(text).dump(-1, ' ', false, json::error_handler_t::replace));
+    (*a.problem)["parameter"] = "wait";
+    return a;
+  }
+  return std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(seconds));
 }
 
 // 409 for a job without a result: not finished yet, failed, or cancelled.
@@ -225,9 +246,25 @@ Answer post_job(Service& service, const httplib::Request& req) {
 
 Answer get_job(Service& service, const httplib::Request& req) {
   return guarded([&]() -> Answer {
-    auto found = lookup_job(service, req.matches[1]);
-    if (auto* a = std::get_if<Answer>(&found)) return std::move(*a);
-    return job_answer(200, std::get<JobSnapshot>(found));
+    auto wait = wait_of(req);
+    if (auto* a = std::get_if<Answer>(&wait)) return std::move(*a);
+    const Clock::time_point start = Clock::now();
+    const Clock::time_point until = start + std::get<Clock::duration>(wait);
+    const JobWaits::Place place = until > start ? service.waits.enter() : JobWaits::Place();
+    for (;;) {
+      const std::uint64_t seen = service.waits.generation();
+      auto found = lookup_job(service, req.matches[1]);
+      if (auto* a = std::get_if<Answer>(&found)) return std::move(*a);
+      const JobSnapshot& s = std::get<JobSnapshot>(found);
+      const Clock::time_point now = Clock::now();
+      if (is_final(s.state) || !place || service.waits.closed() || now >= until) return job_answer(200, s);
+      // A job of this process wakes its waiters when it ends; one run by another replica of the shared queue
+      // does not, so the job is looked at again after a twentieth of the time waited so far (the end is learnt
+      // at most 5 % late, and a long wait costs few reads), between 5 and 250 ms.
+      const Clock::duration recheck = std::clamp<Clock::duration>((now - start) / 20, std::chrono::milliseconds(5),
+                                                                   std::chrono::milliseconds(250));
+      service.waits.sleep(seen, std::min(until, now + recheck));
+    }
   });
 }
 

@@ -74,6 +74,7 @@ void MemoryJobs::finished(const std::shared_ptr<Job>& job) {
                                        {"code", s.problem ? s.problem->value("code", "") : ""},
                                        {"result_bytes", s.result_bytes}});
   store_.finished(job);
+  service_.waits.notify();
 }
 
 // Ends a job that is still queued (its place in the queue is freed); a worker that took it meanwhile finds it

@@ -723,6 +723,7 @@ void RedisJobs::run_job(const std::string& entry, const std::string& id) {
       local.json = text;
       local_.put(id, std::move(local));
     }
+    service_.waits.notify();  // the polls waiting here for this job answer now
     wake();  // this worker is free: the fetcher may take the next job now
     service_.metrics.count_job_finished(to_string(s.state));
     service_.event(spdlog::level::info, {{"event", "job_finished"},

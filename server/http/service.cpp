@@ -65,7 +65,8 @@ struct Service::SyncWork {
 Service::Service(ServerConfig c, std::shared_ptr<spdlog::logger> logger)
     : config(resolve(std::move(c))),
       log(std::move(logger)),
-      pool(config.workers, config.queue_capacity) {
+      pool(config.workers, config.queue_capacity),
+      waits(std::max<std::size_t>(1, config.http_threads / 2)) {
   if (config.queue_url.empty())
     jobs = std::make_unique<MemoryJobs>(*this);
   else

@@ -18,6 +18,7 @@
 #include "engine/cancel.h"
 #include "server/http/http_server.h"
 #include "server/http/job_store.h"
+#include "server/http/job_waits.h"
 #include "server/http/metrics.h"
 #include "server/http/problems.h"
 #include "server/http/worker_pool.h"
@@ -48,6 +49,8 @@ public:
   // The asynchronous jobs, chosen once: in memory on this process's pool (MemoryJobs), or the shared queue of
   // --queue-url (RedisJobs). Declared after the pool and stopped before it is joined (~Service).
   std::unique_ptr<JobQueue> jobs;
+  // The polls waiting for a job to end (GET /v1/jobs/{id}?wait=): at most half the connections.
+  JobWaits waits;
   std::atomic<bool> draining{false};
   const Clock::time_point started_at = Clock::now();
 

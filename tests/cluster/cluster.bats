@@ -108,10 +108,25 @@ running_replica_of_long() {
   long="$id"
   runner="$(running_replica_of_long)"
   for n in 1 2 3; do [ "$n" != "$runner" ] && { other="$n"; break; }; done
-  local url="REPLICA${other}_URL"
+  # Two polls wait for the end (?wait=): one on the runner (woken when its worker ends the job) and one on the
+  # third replica (which learns it from Redis).
+  local third url waiters=()
+  for n in 1 2 3; do [ "$n" != "$runner" ] && [ "$n" != "$other" ] && third="$n"; done
+  for n in "$runner" "$third"; do
+    url="REPLICA${n}_URL"
+    curl -sS -o "$BATS_TEST_TMPDIR/waited$n" --max-time 60 "${!url}/v1/jobs/$id?wait=30" &
+    waiters+=($!)
+  done
+  sleep 0.3
+  url="REPLICA${other}_URL"
   call -s job.schema.json DELETE "${!url}/v1/jobs/$id"
   expect 202
   [ "$(jq -r .cancel_requested "$answer")" = true ]
+  for n in "${waiters[@]}"; do wait "$n"; done
+  for n in "$runner" "$third"; do
+    [ "$(jq -r .state "$BATS_TEST_TMPDIR/waited$n")" = cancelled ]
+    echo "schema job.schema.json $BATS_TEST_TMPDIR/waited$n" >>"$BATS_TEST_TMPDIR/manifest"
+  done
   [ "$(wait_final "$REPLICA2_URL" "$id" 30)" = cancelled ]
   call -s job.schema.json GET "$REPLICA3_URL/v1/jobs/$id"
   [ "$(jq -r .error.code "$answer")" = cancelled ]

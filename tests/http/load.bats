@@ -15,7 +15,7 @@ setup_file() {
 teardown() {
   check_recorded_answers
   # servers a test started and did not stop (a failed assertion): stop them
-  for name in QUEUE DEADLINE LOAD CANCEL TTL COUNT TERM GRACE ENVS; do
+  for name in QUEUE DEADLINE LOAD CANCEL WAIT TTL COUNT TERM GRACE ENVS; do
     pid_var="${name}_PID"
     if [ -n "${!pid_var:-}" ] && kill -0 "${!pid_var}" 2>/dev/null; then stop_server "$name" || true; fi
   done
@@ -163,6 +163,51 @@ slow_job() {
   elapsed_ms=$(( ($(date +%s%N) - start) / 1000000 ))
   [ "$elapsed_ms" -lt 5000 ] || { echo "cancellation took $elapsed_ms ms" >&2; return 1; }
   stop_server CANCEL
+}
+
+@test "long poll: GET /v1/jobs/{id}?wait=S answers when the job ends, or after S as it is; SIGTERM ends the wait" {
+  start_server WAIT --workers 1 --test-hooks
+  # One poll waiting up to 30 s gets the finished job (a poll without wait this early sees it queued or running).
+  slow_job "$WAIT_URL" 800
+  call -s job.schema.json GET "$WAIT_URL/v1/jobs/$job_id?wait=30"
+  expect 200
+  [ "$(jq -r .state "$answer")" = succeeded ]
+  # A short wait on a long job answers with the job as it is.
+  slow_job "$WAIT_URL" 20000
+  long="$job_id"
+  call -s job.schema.json GET "$WAIT_URL/v1/jobs/$long?wait=0.2"
+  expect 200
+  [[ "$(jq -r .state "$answer")" =~ ^(queued|running)$ ]]
+  # A job ended by a DELETE from another connection wakes its waiting poll.
+  waited="$BATS_TEST_TMPDIR/waited"
+  curl -sS -o "$waited" --max-time 60 "$WAIT_URL/v1/jobs/$long?wait=30" &
+  poll=$!
+  sleep 0.3
+  call DELETE "$WAIT_URL/v1/jobs/$long"
+  expect 202
+  wait "$poll"
+  [ "$(jq -r .state "$waited")" = cancelled ]
+  echo "schema job.schema.json $waited" >>"$BATS_TEST_TMPDIR/manifest"
+  # Not a number of seconds from 0 to 30: 400, naming the parameter.
+  for bad in abc -1 30.5 nan inf 1e999 '' 0x10 '2%20s'; do
+    call GET "$WAIT_URL/v1/jobs/$long?wait=$bad"
+    expect 400 invalid_query_parameter
+    [ "$(jq -r .parameter "$answer")" = wait ]
+  done
+  # SIGTERM: a poll still waiting answers at once with the job as it is, and the service exits 0.
+  slow_job "$WAIT_URL" 20000
+  curl -sS -o "$waited" -w '%{http_code}' --max-time 60 "$WAIT_URL/v1/jobs/$job_id?wait=30" >"$waited.code" &
+  poll=$!
+  sleep 0.3
+  start=$(date +%s%N)
+  kill -TERM "$WAIT_PID"
+  wait "$poll"
+  [ "$(cat "$waited.code")" = 200 ]
+  [ "$(jq -r .id "$waited")" = "$job_id" ]
+  stop_server WAIT
+  [ "$stop_status" = 0 ]
+  elapsed_ms=$(( ($(date +%s%N) - start) / 1000000 ))
+  [ "$elapsed_ms" -lt 10000 ] || { echo "the waiting poll held the shutdown for $elapsed_ms ms" >&2; return 1; }
 }
 
 @test "results are dropped after their time (410 job_gone, reason expired)" {
