@@ -264,20 +264,27 @@ std::string RedisJobs::enqueue(const JobRequest& job) {
   param("metric", request.params.metric);
   for (const auto& [name, part] : request.parts)
     hset.insert(hset.end(), {"part:" + name, part.content, "ptype:" + name, part.content_type});
-  // One round trip: the request, its expiry, then the job (refused when the shared queue is full).
-  std::vector<Reply> replies = redis.connection().pipeline(
-      {hset,
-       {"PEXPIRE", req_key(id), std::to_string(keep)},
-       {"EVAL", kSubmit, "2", kStream, job_key(id), std::to_string(service_.config.queue_capacity), id,
-        std::to_string(created), std::to_string(deadline_ms), std::to_string(job.hooks.delay_ms), job.hooks.fault,
-        std::to_string(keep)}});
-  const Reply& r = replies[2];
-  if (!is_array(r.get(), 2)) throw QueueUnavailable("Redis: unexpected answer to the submit script");
-  if (integer(r->element[0]) == 0) {
-    redis({"DEL", req_key(id)});
-    throw SharedQueueFull(static_cast<std::size_t>(integer(r->element[1])));
-  }
+  // Handed over before the job is in the stream: this replica's fetcher may take it from there before the
+  // answer below has come back, and must then find the parsed request rather than parse the stored one again.
   if (job.parsed) handoffs_.put(id, {job.parsed, job.asset});
+  try {
+    // One round trip: the request, its expiry, then the job (refused when the shared queue is full).
+    std::vector<Reply> replies = redis.connection().pipeline(
+        {hset,
+         {"PEXPIRE", req_key(id), std::to_string(keep)},
+         {"EVAL", kSubmit, "2", kStream, job_key(id), std::to_string(service_.config.queue_capacity), id,
+          std::to_string(created), std::to_string(deadline_ms), std::to_string(job.hooks.delay_ms), job.hooks.fault,
+          std::to_string(keep)}});
+    const Reply& r = replies[2];
+    if (!is_array(r.get(), 2)) throw QueueUnavailable("Redis: unexpected answer to the submit script");
+    if (integer(r->element[0]) == 0) {
+      redis({"DEL", req_key(id)});
+      throw SharedQueueFull(static_cast<std::size_t>(integer(r->element[1])));
+    }
+  } catch (...) {
+    handoffs_.take(id);  // not accepted: nothing to hand over
+    throw;
+  }
   wake();
   return id;
 }
