@@ -2,7 +2,11 @@
 // parameterization of the same mesh for comparison.
 //
 //   bench_pipeline [--quick] [--runs N] [--mesh NAME]... [--data DIR] [--budget-s S] [--large[=N]]
-//                  [--large-mesh NAME]
+//                  [--large-mesh NAME] [--no-peer] [--optimize NAME]
+//
+// --no-peer: CGAL's Tutte is not run (ratio "-"): for profiling runs of lipmap alone (CGAL takes over a minute
+// at 1M triangles). --optimize NAME (none, mips, symmetric_dirichlet; default the engine's, mips): the optimize
+// stage's energy, none to time the map's own cost.
 //
 // --large[=N] (N = 1 or 2, default 2): instead of the catalog, rows at ~250k (N >= 1) and ~1M (N = 2) triangles,
 // made here by 1-to-4 subdivision (each triangle into four at its edge midpoints) of one shared mesh
@@ -159,6 +163,9 @@ struct Row {
   std::string source_solution = "-", target_solution = "-";
 };
 
+// The engine's options of every row (--optimize changes the energy).
+lipmap::ParametrizeOptions g_options;  // the defaults: harmonic, refine, density 1 (the paper), untangle, optimize mips
+
 Row run_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs, double budget_s) {
   Row row;
   row.vertices = static_cast<long long>(m.vertices.size());
@@ -170,7 +177,7 @@ Row run_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs, double 
   lipmap::RawBoundary b;
   b.positions = t.positions;
   if (t.rotation_indices) b.rotation_indices = std::vector<long long>(t.rotation_indices->begin(), t.rotation_indices->end());
-  lipmap::ParametrizeOptions options;  // the defaults: harmonic, refine, density 1 (the paper), untangle, optimize mips
+  const lipmap::ParametrizeOptions& options = g_options;
   std::vector<double> tri, maps, cr, uo, total, other, stage[8];
   lipmap::CancelToken token;
   token.set_deadline(Clock::now() + std::chrono::milliseconds(static_cast<long long>(budget_s * 1000)));
@@ -340,11 +347,13 @@ struct MeshResult {
   std::vector<std::pair<std::string, Row>> rows;  // (target kind, row)
 };
 
+static bool g_peer = true;  // false (--no-peer): CGAL's Tutte is not run
+
 MeshResult bench_mesh(const Mesh& m, int runs, double budget_s, bool stages) {
   MeshResult out;
   const std::string& name = m.name;
   std::string cgal_error;
-  const std::string cgal_line = isolated([&] {
+  const std::string cgal_line = !g_peer ? std::string("cgal\t-1") : isolated([&] {
     std::string err;
     const double ms = cgal_tutte_ms(m, runs, &err);
     return err.empty() ? "cgal\t" + std::to_string(ms) : "error\t" + err;
@@ -411,17 +420,21 @@ int main(int argc, char** argv) {
     else if (!std::strncmp(argv[i], "--large=", 8)) large = std::clamp(std::atoi(argv[i] + 8), 1, 2);
     else if (!std::strcmp(argv[i], "--large-mesh") && i + 1 < argc) large_mesh = argv[++i];
     else if (!std::strcmp(argv[i], "--stages")) stages = true;
+    else if (!std::strcmp(argv[i], "--no-peer")) g_peer = false;
+    else if (!std::strcmp(argv[i], "--optimize") && i + 1 < argc &&
+             lipmap::parse_optimize_energy(argv[i + 1], g_options.optimize)) ++i;
     else {
       std::printf("usage: %s [--quick] [--runs N] [--mesh NAME]... [--data DIR] [--budget-s S] [--stages] "
-                  "[--large[=1|2]] [--large-mesh NAME]\n", argv[0]);
+                  "[--large[=1|2]] [--large-mesh NAME] [--no-peer] [--optimize none|mips|symmetric_dirichlet]\n", argv[0]);
       return 0;
     }
   }
 
   struct utsname u {};
   uname(&u);
-  std::printf("bench_pipeline: lipmap::parametrize (defaults: harmonic, refine, target density 1, untangle, optimize mips) vs CGAL Tutte "
-              "(Barycentric_mapping_parameterizer_3 + Circular_border_arc_length_parameterizer_3)\n");
+  std::printf("bench_pipeline: lipmap::parametrize (harmonic, refine, target density 1, untangle, optimize %s) vs CGAL Tutte "
+              "(Barycentric_mapping_parameterizer_3 + Circular_border_arc_length_parameterizer_3)%s\n",
+              lipmap::to_string(g_options.optimize), g_peer ? "" : " [--no-peer: CGAL not run]");
   std::printf("machine: %s %s %s %s; %u hardware threads (nproc); %s\n", u.sysname, u.nodename, u.release, u.machine,
               std::thread::hardware_concurrency(), cpu_model().c_str());
   std::printf("median of %d run%s per row (budget %.0f s per row); times in ms; peak = max resident set of the row's "

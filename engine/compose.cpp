@@ -2,7 +2,7 @@
 #include "engine/compose.h"
 
 #include <chrono>
-#include <deque>
+#include <vector>
 
 #include "engine/detail/disk_walk.h"
 
@@ -23,7 +23,10 @@ Composition compose(const DiskMesh& source, const std::vector<int>& loop, const 
   // Breadth first from the boundary, so every walk starts in the face where a neighbour was found.
   std::vector<int> start_face(n, -1);
   std::vector<char> seen(n, 0);
-  std::deque<int> queue;
+  // Every vertex enters the queue once: a flat array read from its front, no deque blocks to allocate.
+  std::vector<int> queue;
+  queue.reserve(n);
+  std::size_t head = 0;
   for (int k = 0; k < static_cast<int>(loop.size()); ++k) {
     const int v = loop[k];
     out.uv[v] = target.vertices[k];  // h_s and h_t pin boundary vertex k to the same disk point
@@ -33,9 +36,8 @@ Composition compose(const DiskMesh& source, const std::vector<int>& loop, const 
   }
   const MeshTopology& mesh = source.topology;
   int visited = 0;
-  while (!queue.empty()) {
-    const int v = queue.front();
-    queue.pop_front();
+  while (head < queue.size()) {
+    const int v = queue[head++];
     if (++visited % 4096 == 0) check_cancel(cancel);
     if (boundary_index[v] < 0) {
       const Point2& q = source_disk[v];

@@ -378,17 +378,11 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
     });
   }
   out.map = run_stage(Stage::refine, time.refine, cancel, progress, [&] {
-    const bool needed = options.refine && !out.untangling.succeeded;
-    RefinedMap m = refine(work_mesh, input.boundary.loop, out.classification.rotation_indices, source_disk, target,
-                          disk.target.uv, composition, needed, cancel);
-    if (out.untangling.succeeded) {
-      RefinedMap u = untangled_map(work_mesh, out.untangling);
-      m.vertices = std::move(u.vertices);
-      m.faces = std::move(u.faces);
-      m.uv = std::move(u.uv);
-      m.inserted = std::move(u.inserted);
-    }
-    return m;
+    // An untangled map is the answer as it stands: refine(..., false) would only rebuild the composed map
+    // that it replaces (and its flip count, which is reported from the relocation below).
+    if (out.untangling.succeeded) return untangled_map(work_mesh, out.untangling);
+    return refine(work_mesh, input.boundary.loop, out.classification.rotation_indices, source_disk, target,
+                  disk.target.uv, composition, options.refine, cancel);
   });
   // Reported as the paper's "flipped before refinement": the composed map's flips, before relocation.
   out.map.flipped_before_refinement = out.relocation.flipped_before;

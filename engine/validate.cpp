@@ -56,29 +56,28 @@ void check_finite_coordinates(const RawMesh& raw) {
   }
 }
 
-void check_triangles(const RawMesh& raw) {
-  for (size_t f = 0; f < raw.faces.size(); ++f)
-    if (raw.faces[f].size() != 3)
-      reject("face_not_triangle", "face " + s(f) + " has " + s(raw.faces[f].size()) +
-                                      " corners; only triangles are accepted", "face", f);
-}
-
-void check_indices_in_range(const RawMesh& raw) {
+// face_not_triangle, then face_index_out_of_range, then the faces as Triangles, in one pass over the raw
+// faces (each a separate small vector: one walk over them, not three). A face that is not a triangle is
+// reported first whatever the faces before it hold, so an index out of range is only noted on the way.
+std::vector<Triangle> checked_triangles(const RawMesh& raw) {
   const long long n = static_cast<long long>(raw.vertices.size());
-  for (size_t f = 0; f < raw.faces.size(); ++f)
-    for (size_t k = 0; k < 3; ++k) {
-      long long v = raw.faces[f][k];
-      if (v < 0 || v >= n)
-        reject("face_index_out_of_range", "face " + s(f) + " corner " + s(k) + " refers to vertex " + s(v) +
-                                              ", but vertex indices run from 0 to " + s(n - 1), "face", f);
-    }
-}
-
-// Only called after the range check, so every index fits in an int.
-std::vector<Triangle> to_triangles(const RawMesh& raw) {
   std::vector<Triangle> faces(raw.faces.size());
-  for (size_t f = 0; f < faces.size(); ++f)
-    for (int k = 0; k < 3; ++k) faces[f][k] = static_cast<int>(raw.faces[f][k]);
+  size_t bad_face = raw.faces.size(), bad_corner = 0;
+  for (size_t f = 0; f < raw.faces.size(); ++f) {
+    const std::vector<long long>& face = raw.faces[f];
+    if (face.size() != 3)
+      reject("face_not_triangle", "face " + s(f) + " has " + s(face.size()) +
+                                      " corners; only triangles are accepted", "face", f);
+    for (size_t k = 0; k < 3; ++k) {
+      const long long v = face[k];
+      if ((v < 0 || v >= n) && bad_face == raw.faces.size()) bad_face = f, bad_corner = k;
+      faces[f][k] = static_cast<int>(v);  // only returned when every index is in range (then it fits)
+    }
+  }
+  if (bad_face < raw.faces.size())
+    reject("face_index_out_of_range", "face " + s(bad_face) + " corner " + s(bad_corner) + " refers to vertex " +
+                                          s(raw.faces[bad_face][bad_corner]) + ", but vertex indices run from 0 to " +
+                                          s(n - 1), "face", bad_face);
   return faces;
 }
 
@@ -119,27 +118,33 @@ void check_no_degenerate_face(const std::vector<Point3>& vertices, const std::ve
   }
 }
 
-// O(F log F): one sort, then one pass over runs of equal vertex sets (a run of k copies costs k, not k^2).
-void check_no_duplicate_face(const std::vector<Triangle>& faces, const CancelToken* cancel) {
-  // Sort (vertex set, face) pairs: equal sets become neighbours and the earliest face of a set comes first.
-  std::vector<std::pair<Triangle, int>> keyed(faces.size());
-  for (size_t f = 0; f < faces.size(); ++f) {
-    poll(cancel, f);
-    Triangle key = faces[f];
-    std::sort(key.begin(), key.end());
-    keyed[f] = {key, static_cast<int>(f)};
-  }
-  std::sort(keyed.begin(), keyed.end());
-  check_cancel(cancel);
-  int worst = -1, original = -1;
-  size_t run_start = 0;  // first entry of the current run of equal vertex sets: its earliest face
-  for (size_t i = 1; i < keyed.size(); ++i) {
-    poll(cancel, i);
-    if (keyed[i].first != keyed[i - 1].first) {
-      run_start = i;
+// Two faces on the same three vertices share all three of their edges, so every copy of a face is among the
+// uses of each of its edges, and two uses of one edge are copies exactly when their third corners agree: one
+// pass over the topology's edges, no sort of all faces (an edge with many faces sorts its own few).
+void check_no_duplicate_face(const std::vector<Triangle>& faces, const MeshTopology& mesh, const CancelToken* cancel) {
+  int worst = -1, original = -1;  // the lowest face that copies an earlier one, and the earliest copy
+  std::vector<std::pair<int, int>> keyed;  // (third corner, face) of a crowded edge's uses
+  const auto third = [&](int h) { return mesh.from(MeshTopology::prev(h)); };
+  for (int e = 0; e < mesh.edge_count(); ++e) {
+    poll(cancel, static_cast<size_t>(e));
+    const HalfedgeRange uses = mesh.edge_uses(e);  // ascending half-edges: ascending faces
+    if (uses.size() < 2) continue;
+    if (uses.size() == 2) {
+      const int g = MeshTopology::face_of(uses[0]), f = MeshTopology::face_of(uses[1]);
+      if (third(uses[0]) == third(uses[1]) && (worst < 0 || f < worst)) worst = f, original = g;
       continue;
     }
-    if (worst < 0 || keyed[i].second < worst) worst = keyed[i].second, original = keyed[run_start].second;
+    keyed.clear();
+    for (int h : uses) keyed.emplace_back(third(h), MeshTopology::face_of(h));
+    std::sort(keyed.begin(), keyed.end());
+    size_t run = 0;  // the first entry of the current run of equal third corners: its earliest face
+    for (size_t i = 1; i < keyed.size(); ++i) {
+      if (keyed[i].first != keyed[i - 1].first) {
+        run = i;
+        continue;
+      }
+      if (worst < 0 || keyed[i].second < worst) worst = keyed[i].second, original = keyed[run].second;
+    }
   }
   if (worst >= 0) {
     const Triangle& t = faces[worst];
@@ -347,23 +352,23 @@ DiskMesh validate_mesh(const RawMesh& raw, const CancelToken* cancel) {
   check_cancel(cancel);
   check_finite_coordinates(raw);
   check_cancel(cancel);
-  check_triangles(raw);
-  check_indices_in_range(raw);
+  std::vector<Triangle> faces = checked_triangles(raw);
   check_cancel(cancel);
-  std::vector<Triangle> faces = to_triangles(raw);
   check_no_repeated_corner(faces);
   check_all_referenced(raw.vertices.size(), faces);
   check_cancel(cancel);
   check_no_degenerate_face(raw.vertices, faces, cancel);
-  check_no_duplicate_face(faces, cancel);
-  check_cancel(cancel);
-
+  // The topology takes any face list with indices in range; the duplicate check reads its edges.
   MeshTopology mesh(static_cast<int>(raw.vertices.size()), faces);
+  check_cancel(cancel);
+  check_no_duplicate_face(faces, mesh, cancel);
   check_cancel(cancel);
   check_manifold_edges(mesh);
   check_orientation(mesh);
   check_cancel(cancel);
-  check_manifold_vertices(faces, raw.vertices.size(), mesh);
+  // With every edge manifold and oriented, the topology's fans exist exactly when each vertex's corners form
+  // one fan; only a mesh without them needs the corner-by-corner search that names the pinched vertex.
+  if (!mesh.oriented_manifold()) check_manifold_vertices(faces, raw.vertices.size(), mesh);
   if (!mesh.oriented_manifold()) throw InternalError("validate: a manifold, oriented mesh has no fans");
   check_cancel(cancel);
   check_connected(faces, mesh);
