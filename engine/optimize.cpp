@@ -1,6 +1,7 @@
 // Stage "optimize" (engine/optimize.h).
 #include "engine/optimize.h"
 
+#include <algorithm>
 #include <chrono>
 
 #include "engine/detail/uv_descent.h"
@@ -24,6 +25,12 @@ bool parse_optimize_energy(const std::string& name, OptimizeEnergy& out) {
       return true;
     }
   return false;
+}
+
+int step_budget(const ParametrizeOptions& options, std::size_t faces) {
+  if (options.time_budget_ms > 0) return options.max_iterations;
+  const double by_work = kOptimizeFaceSteps / static_cast<double>(std::max<std::size_t>(faces, 1));
+  return std::min(options.max_iterations, std::max(kMinOptimizeSteps, static_cast<int>(by_work)));
 }
 
 Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, double uv_area, RefinedMap& map,
@@ -64,7 +71,7 @@ Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, 
   detail::DescentSettings s;
   s.energy = options.optimize == OptimizeEnergy::mips ? detail::UvEnergy::mips : detail::UvEnergy::symmetric_dirichlet;
   s.flip_free = true;
-  s.max_iterations = options.max_iterations;
+  s.max_iterations = step_budget(options, map.faces.size());
   s.relative_tolerance = 1e-5;
   s.cancel = cancel;
   if (options.time_budget_ms > 0)
@@ -91,6 +98,7 @@ Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, 
   out.energy_after = r.energy_after;
   if (r.converged) out.outcome = "converged";
   else if (r.iterations >= options.max_iterations) out.outcome = "stopped at max_iterations";
+  else if (r.iterations >= s.max_iterations) out.outcome = "stopped at the work budget (steps x triangles; a time budget lifts it)";
   else if (options.time_budget_ms > 0 && std::chrono::steady_clock::now() >= s.deadline) out.outcome = "stopped at the time budget";
   else out.outcome = "stopped: no further flip-free decrease";
   return out;

@@ -150,6 +150,7 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
   s.flip_free = false;
   s.max_iterations = kStepsPerRound;
   s.relative_tolerance = 1e-9;
+  s.stop_when_positive = true;
   s.cancel = cancel;
   // Steps in all, fewer on large meshes (a step costs a pass over the faces): a case the untangler cannot
   // solve within them goes to refinement.

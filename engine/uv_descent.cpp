@@ -264,6 +264,12 @@ struct UvDescent::Impl {
     return t;
   }
 
+  double min_det_active(const std::vector<Point2>& uv) const {
+    double d = kInf;
+    for (int f : active) d = std::min(d, edges(uv, f).det());
+    return d;
+  }
+
   bool all_positive_exactly(const std::vector<Point2>& uv) const {
     for (int f : active)
       if (orient(uv[faces[f][0]], uv[faces[f][1]], uv[faces[f][2]]) <= 0) return false;
@@ -357,12 +363,15 @@ DescentOutcome UvDescent::minimize(std::vector<Point2>& uv, const DescentSetting
     }
     double t = 1;
     if (flip_free) t = std::min(1.0, 0.9 * m.max_flip_free_step(uv, p));
-    bool accepted = false;
+    bool accepted = false, have_gradient = false;
     double e_new = e;
     for (int back = 0; back < 40 && t > 0; ++back, t *= 0.5) {
       check_cancel(s.cancel);
       m.apply(uv, p, t, trial);
-      e_new = m.evaluate(trial, s, nullptr);
+      // The full step is usually accepted: its gradient comes with the energy (one pass over the faces
+      // instead of two); backtracked trials evaluate the energy alone.
+      have_gradient = back == 0;
+      e_new = m.evaluate(trial, s, have_gradient ? &g_new : nullptr);
       if (!(e_new <= e + kArmijo * t * slope)) continue;
       if (flip_free && !m.all_positive_exactly(trial)) continue;
       accepted = true;
@@ -375,7 +384,7 @@ DescentOutcome UvDescent::minimize(std::vector<Point2>& uv, const DescentSetting
       S.clear(), Y.clear(), rho.clear();
       continue;
     }
-    m.evaluate(trial, s, &g_new);
+    if (!have_gradient) m.evaluate(trial, s, &g_new);
     Vec2s step = t * p, dg = g_new - g;
     const double sy = dot(step, dg);
     if (sy > 1e-300) {
@@ -392,6 +401,10 @@ DescentOutcome UvDescent::minimize(std::vector<Point2>& uv, const DescentSetting
     ++out.iterations;
     // Converged: three steps in a row that each lower the energy by less than the tolerance (one short
     // step after heavy backtracking is not convergence).
+    if (s.stop_when_positive && m.min_det_active(uv) > 0 && m.all_positive_exactly(uv)) {
+      out.positive = true;
+      break;
+    }
     small_steps = drop <= s.relative_tolerance * std::abs(e) ? small_steps + 1 : 0;
     if (small_steps >= 3) {
       out.converged = true;
