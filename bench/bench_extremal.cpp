@@ -2,7 +2,10 @@
 // setting) and every shared disk mesh onto generated targets (circle, c_shape, exp_strip, weak_fan). Both
 // methods run with optimize none (the maps as the methods make them). One row per case: total time, max K,
 // area-weighted mean K, and over the triangles at least 2 rings from the boundary max K / mean K; medians
-// and a summary line at the end. K = sigma1 / sigma2 per triangle (engine/quality.h).
+// and a summary line at the end. K = sigma1 / sigma2 per triangle (engine/quality.h). start: the relaxed
+// start method extremal kept (teich: the Teichmuller map, harm: the harmonic method's map). h movK / e movK:
+// max K over the faces with a corner off the boundary; fixedK: max K over faces with three boundary corners
+// (the same in both maps, no vertex move changes it); a case whose worst face is such a face is noted.
 //
 //   bench_extremal [--reps N] [--mesh NAME]... [--budget-s S]
 //
@@ -64,8 +67,23 @@ struct Stats {
   bool ok = false;
   std::string error;
   double ms = 0, max_k = 0, mean_k = 0, inner_ratio = 0, k = 0;
+  double fixed_max = 1, movable_max = 1;  // max K over faces with three boundary corners / the other faces
+  std::string start;                      // extremal: the relaxed start kept
   int inserted = 0;
 };
+
+// Faces whose three corners are boundary vertices have the polygon's uv and the mesh's 3D shape in every map
+// (no vertex move changes their K): max K over them, and over the other faces.
+void fixed_and_movable(const lipmap::ParametrizeResult& r, Stats& s) {
+  std::vector<char> on_loop(r.map.uv.size(), 0);
+  for (int v : r.boundary_loop) on_loop[v] = 1;
+  s.fixed_max = s.movable_max = 1;
+  for (std::size_t f = 0; f < r.map.faces.size(); ++f) {
+    const Triangle& t = r.map.faces[f];
+    double& m = on_loop[t[0]] && on_loop[t[1]] && on_loop[t[2]] ? s.fixed_max : s.movable_max;
+    m = std::max(m, r.distortion.per_face[f]);
+  }
+}
 
 // max K / mean K over faces whose corners are all at least 2 edges from the boundary.
 double inner_ratio(const lipmap::ParametrizeResult& r) {
@@ -124,6 +142,8 @@ Stats run(const lipmap::RawMesh& mesh, const std::vector<Point2>& positions, con
       s.inner_ratio = inner_ratio(r);
       s.inserted = static_cast<int>(r.map.inserted.size());
       s.k = r.extremal.k;
+      s.start = r.extremal.relaxation.start;
+      fixed_and_movable(r, s);
       s.ok = true;
     } catch (const std::exception& e) {
       s.ok = false;
@@ -152,10 +172,12 @@ int main(int argc, char** argv) {
   }
   std::printf("bench_extremal: %d rep%s, optimize none; times in ms (median); inner = max K / mean K 2 rings in\n", reps,
               reps == 1 ? "" : "s");
-  std::printf("%-34s %9s %9s %8s %8s %7s %7s %7s %7s %6s %6s\n", "case", "harm ms", "extr ms", "harm maxK",
-              "extr maxK", "h meanK", "e meanK", "h inner", "e inner", "k", "ins");
+  std::printf("%-34s %9s %9s %8s %8s %7s %7s %7s %7s %6s %6s %5s %9s %9s %9s %s\n", "case", "harm ms", "extr ms",
+              "harm maxK", "extr maxK", "h meanK", "e meanK", "h inner", "e inner", "k", "ins", "start", "h movK",
+              "e movK", "fixedK", "note");
   std::vector<double> time_ratio, h_inner, e_inner, h_max, e_max;
-  int cases = 0, lower_max = 0, failed = 0;
+  int cases = 0, lower_max = 0, failed = 0, fixed_worst = 0, lower_movable = 0, inner_ok = 0;
+  std::vector<std::string> not_lower;
   auto row = [&](const std::string& name, const lipmap::RawMesh& mesh, const std::vector<Point2>& positions,
                  const std::optional<std::vector<int>>& rot) {
     const Stats h = run(mesh, positions, rot, MapMethod::harmonic, reps, budget_s);
@@ -165,10 +187,19 @@ int main(int argc, char** argv) {
       ++failed;
       return;
     }
-    std::printf("%-34s %9.1f %9.1f %8.3f %8.3f %7.3f %7.3f %7.3f %7.3f %6.3f %6d\n", name.c_str(), h.ms, e.ms, h.max_k,
-                e.max_k, h.mean_k, e.mean_k, h.inner_ratio, e.inner_ratio, e.k, e.inserted);
+    // A worst face with three boundary corners is in both maps (the same K): no vertex move can lower max K;
+    // then the faces with a corner off the boundary are compared.
+    const bool fixed = e.max_k >= h.max_k && h.fixed_max >= h.max_k && e.fixed_max >= e.max_k;
+    const char* note = e.max_k < h.max_k ? "lower" : fixed ? "worst face fixed (3 boundary corners)" : "NOT LOWER";
+    std::printf("%-34s %9.1f %9.1f %8.3f %8.3f %7.3f %7.3f %7.3f %7.3f %6.3f %6d %5s %9.3f %9.3f %9.3f %s\n",
+                name.c_str(), h.ms, e.ms, h.max_k, e.max_k, h.mean_k, e.mean_k, h.inner_ratio, e.inner_ratio, e.k,
+                e.inserted, e.start == "harmonic" ? "harm" : "teich", h.movable_max, e.movable_max, h.fixed_max, note);
     ++cases;
     lower_max += e.max_k < h.max_k;
+    fixed_worst += e.max_k >= h.max_k && fixed;
+    lower_movable += e.movable_max < h.movable_max;
+    inner_ok += e.inner_ratio <= 1.5;
+    if (!(e.max_k < h.max_k) && !fixed) not_lower.push_back(name);
     time_ratio.push_back(e.ms / h.ms);
     h_inner.push_back(h.inner_ratio);
     e_inner.push_back(e.inner_ratio);
@@ -220,9 +251,12 @@ int main(int argc, char** argv) {
       row(entry.name() + " / " + lipmap::targetgen::kind_name(kind), raw, t->positions, t->rotation_indices);
     }
   }
-  std::printf("summary: %d cases (%d failed); max K lower than harmonic in %d; median time extremal / harmonic %.2f; "
-              "median max K harmonic %.3f, extremal %.3f; median inner max/mean harmonic %.3f, extremal %.3f\n",
-              cases, failed, lower_max, median(time_ratio), median(h_max), median(e_max), median(h_inner),
-              median(e_inner));
+  std::printf("summary: %d cases (%d failed); max K lower than harmonic in %d, worst face fixed in both (3 boundary "
+              "corners, same K) in %d, neither in %d; max K over faces with a corner off the boundary lower in %d; "
+              "median time extremal / harmonic %.2f; median max K harmonic %.3f, extremal %.3f; median inner max/mean "
+              "harmonic %.3f, extremal %.3f; inner max/mean <= 1.5 in %d\n",
+              cases, failed, lower_max, fixed_worst, static_cast<int>(not_lower.size()), lower_movable,
+              median(time_ratio), median(h_max), median(e_max), median(h_inner), median(e_inner), inner_ok);
+  for (const std::string& n : not_lower) std::printf("not lower: %s\n", n.c_str());
   return failed ? 1 : 0;
 }

@@ -69,32 +69,160 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
   std::vector<double> k(nf);
   for (std::size_t f = 0; f < nf; ++f) k[f] = k_of(f);
   out.max_before = out.max_after = k.empty() ? 1 : *std::max_element(k.begin(), k.end());
+  {
+    std::vector<char> on_loop(nv, 0);
+    for (int v : loop) on_loop[static_cast<std::size_t>(v)] = 1;
+    for (std::size_t f = 0; f < nf; ++f) {
+      const Triangle& t = map.faces[f];
+      if (on_loop[static_cast<std::size_t>(t[0])] && on_loop[static_cast<std::size_t>(t[1])] && on_loop[static_cast<std::size_t>(t[2])])
+        out.fixed_max = std::max(out.fixed_max, k[f]);
+    }
+  }
   if (nf == 0 || !std::isfinite(out.max_before) || count_non_positive(map.uv, map.faces) > 0) return out;
 
   // Free vertices: as the optimize stage's (see extremal_relax.h).
   std::vector<char> pinned(nv, 0);
-  for (int v : loop) pinned[static_cast<std::size_t>(v)] = 1;
+  for (int v : loop) pinned[static_cast<std::size_t>(v)] = 2;
+  // Inserted points per source face (on its edges). An inserted point p may move (its uv only: its 3D point
+  // stays on its edge, contract point 1) when it is the only one on both source faces of its edge: whether a
+  // point is removable (contract point 6) depends on the polygons without it, so p's own uv never makes p
+  // removable, and no other point's polygon contains p. The corners of refined faces and the other inserted
+  // points are conditionally free (below). pinned: 0 free, 1 conditionally free, 2 boundary.
+  std::vector<int> per_face(source.faces.size(), 0);
+  std::vector<int> edge_of(nv - nv_source, -1);
   for (std::size_t i = nv_source; i < nv; ++i) {
     pinned[i] = 1;
     const InsertedVertex& iv = map.inserted[i - nv_source];
     const int e = source.topology.find_edge(iv.a, iv.b);
+    edge_of[i - nv_source] = e;
     if (e < 0) continue;
-    for (int h : source.topology.edge_uses(e))
-      for (int v : source.faces[static_cast<std::size_t>(MeshTopology::face_of(h))]) pinned[static_cast<std::size_t>(v)] = 1;
+    for (int h : source.topology.edge_uses(e)) {
+      const int f = MeshTopology::face_of(h);
+      ++per_face[static_cast<std::size_t>(f)];
+      for (int v : source.faces[static_cast<std::size_t>(f)]) pinned[static_cast<std::size_t>(v)] = std::max<char>(pinned[static_cast<std::size_t>(v)], 1);
+    }
+  }
+  for (std::size_t i = nv_source; i < nv; ++i) {
+    const int e = edge_of[i - nv_source];
+    if (e < 0) continue;
+    bool alone = true;
+    for (int h : source.topology.edge_uses(e)) alone = alone && per_face[static_cast<std::size_t>(MeshTopology::face_of(h))] == 1;
+    if (alone) pinned[i] = 0;
   }
   const MeshTopology topo(static_cast<int>(nv), map.faces);
   if (!topo.oriented_manifold()) return out;
   for (std::size_t v = 0; v < nv; ++v)
-    if (topo.is_boundary_vertex(static_cast<int>(v))) pinned[v] = 1;
-  for (std::size_t v = 0; v < nv; ++v) out.free_vertices += !pinned[v];
+    if (topo.is_boundary_vertex(static_cast<int>(v))) pinned[v] = 2;
+
+  // Conditionally free (pinned == 1: a corner of a refined face, an inserted point sharing a source face with
+  // another): such a move changes the refined polygons of the inserted points q on the source faces around v,
+  // so it is kept only when every such q is still certainly needed afterwards: one of q's two polygons without
+  // q (corners and inserted points in order, paper 4 Fig. 11) has two edges that cross properly (exact
+  // orientation) or a negative area, so it is not simple and counterclockwise and q cannot be removed.
+  std::vector<std::vector<std::pair<double, int>>> on_edge(static_cast<std::size_t>(source.topology.edge_count()));
+  for (std::size_t i = nv_source; i < nv; ++i)
+    if (edge_of[i - nv_source] >= 0)
+      on_edge[static_cast<std::size_t>(edge_of[i - nv_source])].push_back({map.inserted[i - nv_source].t, static_cast<int>(i)});
+  for (auto& points : on_edge) std::sort(points.begin(), points.end());
+  std::vector<int> poly_ids;
+  std::vector<Point2> poly;
+  auto refined_polygon_without = [&](int f, int q) {
+    poly_ids.clear();
+    const Triangle& t = source.faces[static_cast<std::size_t>(f)];
+    for (int c = 0; c < 3; ++c) {
+      const int a = t[c], b = t[(c + 1) % 3];
+      poly_ids.push_back(a);
+      const int e = source.topology.find_edge(a, b);
+      if (e < 0) continue;
+      const auto& points = on_edge[static_cast<std::size_t>(e)];
+      if (a < b) {
+        for (const auto& tp : points)
+          if (tp.second != q) poly_ids.push_back(tp.second);
+      } else {
+        for (auto r = points.rbegin(); r != points.rend(); ++r)
+          if (r->second != q) poly_ids.push_back(r->second);
+      }
+    }
+    poly.clear();
+    for (int id : poly_ids) poly.push_back(map.uv[static_cast<std::size_t>(id)]);
+  };
+  auto not_simple_ccw = [&]() {
+    const std::size_t m = poly.size();
+    long double area = 0, scale = 0;
+    for (std::size_t i = 0; i < m; ++i) {
+      const Point2 &a = poly[i], &b = poly[(i + 1) % m];
+      const long double term = static_cast<long double>(a.x) * b.y - static_cast<long double>(b.x) * a.y;
+      area += term;
+      scale += std::fabs(term);
+    }
+    if (area < -1e-9L * scale) return true;
+    for (std::size_t i = 0; i < m; ++i)
+      for (std::size_t j = i + 2; j < m; ++j) {
+        if (i == 0 && j + 1 == m) continue;  // adjacent through the closing edge
+        const Point2 &p1 = poly[i], &p2 = poly[(i + 1) % m], &p3 = poly[j], &p4 = poly[(j + 1) % m];
+        if (orientation_sign(p1, p2, p3) * orientation_sign(p1, p2, p4) < 0 &&
+            orientation_sign(p3, p4, p1) * orientation_sign(p3, p4, p2) < 0)
+          return true;
+      }
+    return false;
+  };
+  std::vector<int> affected;
+  // Inserted points whose polygons contain v: on the edges of the source faces that have v as a corner or
+  // (v inserted) that hold v's edge.
+  auto affected_points = [&](int v) {
+    affected.clear();
+    std::vector<int> faces;
+    if (static_cast<std::size_t>(v) < nv_source) {
+      for (int h : source.topology.fan(v)) faces.push_back(MeshTopology::face_of(h));
+    } else if (edge_of[static_cast<std::size_t>(v) - nv_source] >= 0) {
+      for (int h : source.topology.edge_uses(edge_of[static_cast<std::size_t>(v) - nv_source])) faces.push_back(MeshTopology::face_of(h));
+    }
+    for (int f : faces) {
+      const Triangle& t = source.faces[static_cast<std::size_t>(f)];
+      for (int c = 0; c < 3; ++c) {
+        const int e = source.topology.find_edge(t[c], t[(c + 1) % 3]);
+        if (e < 0) continue;
+        for (const auto& tp : on_edge[static_cast<std::size_t>(e)])
+          if (tp.second != v) affected.push_back(tp.second);
+      }
+    }
+    std::sort(affected.begin(), affected.end());
+    affected.erase(std::unique(affected.begin(), affected.end()), affected.end());
+  };
+  auto still_needed = [&](int v) {
+    affected_points(v);
+    for (int q : affected) {
+      const int e = edge_of[static_cast<std::size_t>(q) - nv_source];
+      bool needed = false;
+      for (int h : source.topology.edge_uses(e)) {
+        refined_polygon_without(MeshTopology::face_of(h), q);
+        if (not_simple_ccw()) {
+          needed = true;
+          break;
+        }
+      }
+      if (!needed) return false;
+    }
+    return true;
+  };
+  for (std::size_t v = 0; v < nv; ++v) out.free_vertices += pinned[v] != 2;
   if (out.free_vertices == 0) return out;
   out.ran = true;
 
+  // Frozen faces: the levels already settled (see below). A move may not raise a frozen face's K and must
+  // lower the max K over the star's other faces.
+  std::vector<char> frozen(nf, 0);
   std::vector<int> star;
-  auto star_max = [&](int v) {
+  long long evals = 0;
+  const long long eval_cap = std::min<long long>(2000LL * static_cast<long long>(nf), 100000000LL);
+  auto star_max = [&]() {
     double m = 1;
-    for (int f : star) m = std::max(m, k_of(static_cast<std::size_t>(f)));
-    (void)v;
+    evals += static_cast<long long>(star.size());
+    for (int f : star) {
+      const double kf = k_of(static_cast<std::size_t>(f));
+      if (!frozen[static_cast<std::size_t>(f)]) m = std::max(m, kf);
+      else if (kf > k[static_cast<std::size_t>(f)]) return kInf;
+    }
     return m;
   };
   // One vertex: compass search on the star's max K; true when a move was kept.
@@ -103,7 +231,7 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
     for (int h : topo.fan(v)) star.push_back(MeshTopology::face_of(h));
     Point2& p = map.uv[static_cast<std::size_t>(v)];
     const Point2 start = p;
-    const double g0 = star_max(v);
+    const double g0 = star_max();
     double g = g0, edge = 0;
     for (int h : topo.fan(v)) {
       const Point2& q = map.uv[static_cast<std::size_t>(topo.to(h))];
@@ -115,13 +243,13 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
                                      {-0.70710678118654752, 0.70710678118654752}, {-1, 0},
                                      {-0.70710678118654752, -0.70710678118654752}, {0, -1},
                                      {0.70710678118654752, -0.70710678118654752}};
-    for (int evals = 0; evals < 60 && step > min_step; ++evals) {
+    for (int tries = 0; tries < 60 && step > min_step; ++tries) {
       const Point2 here = p;
       Point2 best = here;
       double best_g = g;
       for (const auto& d : dir) {
         p = {here.x + step * d[0], here.y + step * d[1]};
-        const double trial = star_max(v);
+        const double trial = star_max();
         if (trial < best_g) best_g = trial, best = p;
       }
       p = best;
@@ -140,32 +268,46 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
         return false;
       }
     }
+    if (pinned[static_cast<std::size_t>(v)] == 1 && !still_needed(v)) {
+      p = start;
+      return false;
+    }
     for (int f : star) k[static_cast<std::size_t>(f)] = k_of(static_cast<std::size_t>(f));
     return true;
   };
+  // The largest K over the faces that can still change (a free corner) and are not frozen.
+  auto level = [&]() {
+    double m = 1;
+    for (std::size_t f = 0; f < nf; ++f) {
+      const Triangle& t = map.faces[f];
+      if (!frozen[f] && (pinned[static_cast<std::size_t>(t[0])] != 2 || pinned[static_cast<std::size_t>(t[1])] != 2 ||
+                         pinned[static_cast<std::size_t>(t[2])] != 2))
+        m = std::max(m, k[f]);
+    }
+    return m;
+  };
 
+  // Lexicographic minimax: sweeps lower the current level (the worst face that can change sets a threshold;
+  // the free corners of every face within half of its excess over 1 are visited, worst star first). When a
+  // sweep lowers the level by less than a relative 1e-3, the faces at the level are frozen and the next level
+  // down is treated: the global max K is settled first, then the worst faces elsewhere (the interior's worst
+  // triangles are otherwise left as they are whenever the global worst sits at a stuck place, e.g. next to
+  // the boundary). Bounded by the sweeps' cap and by about 2,000 face evaluations per face (at most 1e8).
   std::vector<std::pair<double, int>> order;
   std::vector<char> queued(nv, 0);
-  for (int sweep = 0; sweep < options.max_sweeps; ++sweep) {
+  for (int sweep = 0; sweep < options.max_sweeps && evals < eval_cap; ++sweep) {
     check_cancel(cancel);
     if (options.time_budget_ms > 0 &&
         std::chrono::duration<double, std::milli>(Clock::now() - t0).count() > options.time_budget_ms)
       break;
-    // The worst face that can still change sets the threshold: its free corners and those of every face
-    // within half of its excess over 1 are visited, worst star first.
-    double movable = 1;
-    for (std::size_t f = 0; f < nf; ++f) {
-      const Triangle& t = map.faces[f];
-      if (!pinned[static_cast<std::size_t>(t[0])] || !pinned[static_cast<std::size_t>(t[1])] || !pinned[static_cast<std::size_t>(t[2])])
-        movable = std::max(movable, k[f]);
-    }
-    const double threshold = 1 + 0.5 * (movable - 1);
-    const double before = movable;
+    const double before = level();
+    if (before <= 1 + 1e-3) break;
+    const double threshold = 1 + 0.5 * (before - 1);
     order.clear();
     for (std::size_t f = 0; f < nf; ++f) {
-      if (k[f] < threshold) continue;
+      if (frozen[f] || k[f] < threshold) continue;
       for (int v : map.faces[f])
-        if (!pinned[static_cast<std::size_t>(v)] && !queued[static_cast<std::size_t>(v)]) {
+        if (pinned[static_cast<std::size_t>(v)] != 2 && !queued[static_cast<std::size_t>(v)]) {
           queued[static_cast<std::size_t>(v)] = 1;
           order.push_back({k[f], v});
         }
@@ -173,16 +315,21 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
     for (const auto& [kv, v] : order) queued[static_cast<std::size_t>(v)] = 0;
     std::sort(order.begin(), order.end(), [](const auto& a, const auto& b) { return a.first > b.first || (a.first == b.first && a.second < b.second); });
     int moved = 0;
-    for (const auto& [kv, v] : order) moved += relax_vertex(v);
+    for (const auto& [kv, v] : order) {
+      if (evals >= eval_cap) break;
+      moved += relax_vertex(v);
+    }
     out.moves += moved;
     ++out.sweeps;
-    double after = 1;
-    for (std::size_t f = 0; f < nf; ++f) {
-      const Triangle& t = map.faces[f];
-      if (!pinned[static_cast<std::size_t>(t[0])] || !pinned[static_cast<std::size_t>(t[1])] || !pinned[static_cast<std::size_t>(t[2])])
-        after = std::max(after, k[f]);
+    const double after = level();
+    if (moved == 0 || after > before - 1e-3 * (before - 1)) {
+      // Stuck at this level: freeze its faces (within 1 % of its excess) and go on with the next one.
+      int newly = 0;
+      for (std::size_t f = 0; f < nf; ++f)
+        if (!frozen[f] && k[f] >= 1 + 0.99 * (after - 1)) frozen[f] = 1, ++newly;
+      if (newly == 0) break;
+      ++out.levels;
     }
-    if (moved == 0 || after > before - 1e-3 * (before - 1)) break;
   }
   out.max_after = *std::max_element(k.begin(), k.end());
   out.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();

@@ -8,15 +8,24 @@
 // orientation predicate). Faces outside the star do not change, so the global max K never rises. The
 // positions where every star face is positive form a convex set (an intersection of half-planes), so the
 // straight motion from old to new position keeps every face positive: angle sums, hence local injectivity,
-// are unchanged (the argument of the optimize stage). Sweeps visit the free corners of the worst faces,
-// worst star first, until a sweep lowers max K by less than a relative 1e-3, or a cap.
+// are unchanged (the argument of the optimize stage).
 //
-// Free vertices are the optimize stage's: not the boundary, not inserted vertices, not the corners of source
-// faces that carry inserted vertices (the refinement's minimality, paper 4 Fig. 11, is kept: moving those
-// corners too lowered max K further on three_peaks / weak_fan, 2,193 -> 58, but left inserted points that
-// the independent checker finds removable).
+// Lexicographic minimax (extremal_relax.cpp): sweeps visit the free corners of the worst faces, worst star
+// first; when the worst level stops dropping (less than a relative 1e-3 per sweep) its faces are frozen (no
+// later move may raise them) and the next level down is treated, so the worst faces away from a stuck spot
+// (often next to the boundary) are lowered too. Capped by sweeps and about 2,000 face evaluations per face.
+//
+// Free vertices: every vertex but the boundary. An inserted vertex moves in uv only (its 3D point stays on its
+// edge, contract point 1). The refinement's minimality (contract point 6, paper 4 Fig. 11) is kept: whether an
+// inserted point is removable depends only on its two refined polygons without it, so an inserted point alone
+// on both source faces of its edge moves freely; a corner of a refined face, or an inserted point sharing a
+// face with another, moves only when every inserted point whose polygons it belongs to stays certainly needed
+// (one polygon without it crosses itself properly or has negative area, exact orientation tests). Moving those
+// vertices without that check lowered max K further on three_peaks / weak_fan, 2,193 -> 58, but left inserted
+// points that the independent checker finds removable.
 #pragma once
 
+#include <string>
 #include <vector>
 
 #include "engine/cancel.h"
@@ -28,13 +37,22 @@ namespace lipmap {
 struct ExtremalRelaxation {
   bool ran = false;
   int sweeps = 0, moves = 0;      // sweeps done; vertex moves kept
+  int levels = 0;                 // levels frozen (lexicographic minimax, see extremal_relax.cpp)
   int free_vertices = 0;
   double max_before = 1, max_after = 1;  // max K over the map's faces before and after
+  // max K over the faces whose three corners are boundary vertices: their uv is the polygon's and their 3D
+  // shape the mesh's, so no vertex move (and no other map with this boundary and no insertion) changes them.
+  double fixed_max = 1;
   double ms = 0;
+  // The pipeline relaxes two starts and keeps the one with the lower max K (engine/pipeline.cpp):
+  // "teichmuller" (the paper's composed map) or "harmonic" (the harmonic method's refined map).
+  std::string start = "teichmuller";
+  double other_start_max = 1;  // max K of the start not kept, after its own relaxation
+  double other_start_ms = 0;   // its time (whole pipeline run)
 };
 
 struct ExtremalRelaxOptions {
-  int max_sweeps = 60;
+  int max_sweeps = 400;
   double time_budget_ms = 0;  // 0: none (besides the sweeps' cap and the cancel token)
 };
 

@@ -94,6 +94,8 @@ private:
 // T whose boundary is the polygon is returned as it is (no insertion); else T is untangled with T's triangles
 // as rest shapes; else the stages above run with h_s in T's metric (refinement keeps paper 4's guarantee).
 // Optimization then measures distortion against T's triangles.
+// Method extremal without a metric runs the pipeline twice (the harmonic method's map as a second start of the
+// max K relaxation, the harmonic run first and without progress reports) and keeps the lower max K.
 // Throws InputError (validation, options, NotSelfOverlapping), Cancelled, or InternalError when a result
 // fails verify (never returned).
 ParametrizeResult parametrize(const RawMesh& mesh, const RawBoundary& boundary, const ParametrizeOptions& options,

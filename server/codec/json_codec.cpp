@@ -664,7 +664,10 @@ ordered_json detail::result_json(const lipmap::ParametrizeResult& r, bool big) {
                                      {"moves", e.relaxation.moves},
                                      {"free_vertices", e.relaxation.free_vertices},
                                      {"max_k_before", finite_or_null(e.relaxation.max_before)},
-                                     {"max_k_after", finite_or_null(e.relaxation.max_after)}}}};
+                                     {"max_k_after", finite_or_null(e.relaxation.max_after)},
+                                     {"fixed_max_k", finite_or_null(e.relaxation.fixed_max)},
+                                     {"start", e.relaxation.start},
+                                     {"other_start_max_k", finite_or_null(e.relaxation.other_start_max)}}}};
   }
   d["distortion"] = distortion_json(r.distortion);
   if (r.metric.given) {
