@@ -73,9 +73,7 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
     std::vector<char> on_loop(nv, 0);
     for (int v : loop) on_loop[static_cast<std::size_t>(v)] = 1;
     for (std::size_t f = 0; f < nf; ++f) {
-      const Triangle& t = map.faces[f];
-      if (on_loop[static_cast<std::size_t>(t[0])] && on_loop[static_cast<std::size_t>(t[1])] && on_loop[static_cast<std::size_t>(t[2])])
-        out.fixed_max = std::max(out.fixed_max, k[f]);
+      if (pinned_by_boundary(map.faces[f], on_loop)) out.fixed_max = std::max(out.fixed_max, k[f]);
     }
   }
   if (nf == 0 || !std::isfinite(out.max_before) || count_non_positive(map.uv, map.faces) > 0) return out;

@@ -34,6 +34,13 @@
 
 namespace lipmap {
 
+// Whether every corner of t is on the boundary loop (on_loop[v] != 0): such a face is pinned by the polygon and
+// is the same in every map with that boundary, so no relaxation can change its K.
+inline bool pinned_by_boundary(const Triangle& t, const std::vector<char>& on_loop) {
+  return on_loop[static_cast<std::size_t>(t[0])] && on_loop[static_cast<std::size_t>(t[1])] &&
+         on_loop[static_cast<std::size_t>(t[2])];
+}
+
 struct ExtremalRelaxation {
   bool ran = false;
   int sweeps = 0, moves = 0;      // sweeps done; vertex moves kept

@@ -394,19 +394,14 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
   return out;
 }
 
-
 // max K over the faces with a corner off the boundary loop (faces with three boundary corners are the same in
 // every map with this boundary; see ExtremalRelaxation::fixed_max).
 double movable_max_k(const ParametrizeResult& r) {
   std::vector<char> on_loop(r.map.uv.size(), 0);
   for (int v : r.boundary_loop) on_loop[static_cast<std::size_t>(v)] = 1;
   double m = 1;
-  for (std::size_t f = 0; f < r.map.faces.size() && f < r.distortion.per_face.size(); ++f) {
-    const Triangle& t = r.map.faces[f];
-    if (!on_loop[static_cast<std::size_t>(t[0])] || !on_loop[static_cast<std::size_t>(t[1])] ||
-        !on_loop[static_cast<std::size_t>(t[2])])
-      m = std::max(m, r.distortion.per_face[f]);
-  }
+  for (std::size_t f = 0; f < r.map.faces.size() && f < r.distortion.per_face.size(); ++f)
+    if (!pinned_by_boundary(r.map.faces[f], on_loop)) m = std::max(m, r.distortion.per_face[f]);
   return m;
 }
 
