@@ -29,7 +29,7 @@ namespace lipmap {
 // The stage's default cost bound: steps x triangles at most kOptimizeFaceSteps (one step is a few passes over
 // the triangles and one back-solve with the factorized Laplacian: about 6-9 ms at 50k triangles on the
 // reference machine), at least kMinOptimizeSteps, and never more than options.max_iterations. So a mesh up to
-// 10k triangles gets the full 200 default steps, where they are cheap, and a 50k one 40: the whole
+// 2k triangles gets the full 1000 default steps, where they are cheap, a 10k one 200 and a 50k one 40: the whole
 // pipeline stays within about 2x a plain Tutte map on large meshes (bench/bench_pipeline). A caller who gives
 // options.time_budget_ms gets max_iterations within that time instead.
 inline constexpr double kOptimizeFaceSteps = 2e6;

@@ -34,7 +34,7 @@ struct ParametrizeOptions {
   // Untangling (before refine) and optimization (after it) run only with refine on.
   bool untangle = true;         // false: refine whenever the composed map folds (the paper's path only)
   OptimizeEnergy optimize = OptimizeEnergy::mips;
-  int max_iterations = 200;     // optimization steps, at most; 0 turns optimization off
+  int max_iterations = 1000;    // optimization steps, at most; 0 turns optimization off
   double time_budget_ms = 0;    // wall time of the optimize stage, at most; 0: no budget (max_iterations only)
   // The metric of the source's harmonic map (paper 5.2, engine/reference_metric.h): none for the surface's
   // own (3D) metric; else a reference map T, one uv per source vertex, whose edge lengths |T(a) - T(b)| are

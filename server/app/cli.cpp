@@ -354,7 +354,7 @@ int run(int argc, const char* const* argv, std::istream& in, std::ostream& out, 
                         "or none")
         ->check(CLI::IsMember({"none", "mips", "symmetric_dirichlet"}));
     map_cmd->add_option("--max-iterations", map_args.max_iterations,
-                        "Optimization steps, at most (default 200; 0: no optimization)")
+                        "Optimization steps, at most (default 1000; 0: no optimization)")
         ->check(CLI::Range(0, kMaxOptimizeIterations));
     map_cmd->add_option("--time-budget-ms", map_args.time_budget_ms,
                         "Wall time of the optimization, at most (default: no budget)")
