@@ -23,6 +23,10 @@ constexpr int kMinStepsInAll = 2000;
 constexpr double kFaceStepsInAll = 6e7;  // steps x faces: about 4 s on the 9k-face maze
 constexpr int kSplitPasses = 3;          // rounds of chord splits after a failed run
 constexpr double kMaxStartEpsilon = 0.1;
+// Local attempts: the free vertices within kLocalRings (then 3x as many) rings of the folds, when they are at
+// most a quarter of the free vertices, with at most kLocalSteps steps each.
+constexpr int kLocalRings = 2;
+constexpr int kLocalSteps = 500;
 
 double shoelace(const std::vector<Point2>& p) {
   double a = 0;
@@ -32,6 +36,21 @@ double shoelace(const std::vector<Point2>& p) {
 
 Point3 lerp(const Point3& a, const Point3& b, double t) {
   return {a.x + t * (b.x - a.x), a.y + t * (b.y - a.y), a.z + t * (b.z - a.z)};
+}
+
+// near[v]: v is a corner of a face not positive under uv, or within `rings` rings of one (over `faces`).
+std::vector<char> near_folds(const std::vector<Triangle>& faces, const std::vector<Point2>& uv, std::size_t nv,
+                             int rings) {
+  std::vector<char> near(nv, 0);
+  for (const Triangle& t : faces)
+    if (orientation_sign(uv[t[0]], uv[t[1]], uv[t[2]]) <= 0) near[t[0]] = near[t[1]] = near[t[2]] = 1;
+  for (int r = 0; r < rings; ++r) {
+    std::vector<char> next = near;
+    for (const Triangle& t : faces)
+      if (near[t[0]] || near[t[1]] || near[t[2]]) next[t[0]] = next[t[1]] = next[t[2]] = 1;
+    near.swap(next);
+  }
+  return near;
 }
 
 // The chord splits of the header: for each fixed (three pinned corners) non-positive face not yet served by a
@@ -188,8 +207,33 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
     return count_non_positive(x, faces);
   };
   const double uv_area = shoelace(polygon.vertices);
+  // Local first: when the folds are few, only the free vertices near them move. The system is then the size of
+  // that neighbourhood (on a 50k-face mesh with one fold, no factorization of the whole Laplacian), and the
+  // rest of the map stays as composed. Failing that, the whole interior moves, as before.
+  auto untangle_locally = [&](const std::vector<Triangle>& faces) {
+    const auto free_all = std::count(pinned.begin(), pinned.end(), 0);
+    for (int rings : {kLocalRings, 3 * kLocalRings}) {
+      const std::vector<char> near = near_folds(faces, uv, pinned.size(), rings);
+      std::vector<char> local_pinned(pinned.size());
+      long free_local = 0;
+      for (std::size_t v = 0; v < pinned.size(); ++v) free_local += !(local_pinned[v] = pinned[v] || !near[v]);
+      if (free_local == 0 || 4 * free_local > free_all) return false;
+      detail::UvDescent local(shape, faces, local_pinned, uv_area);
+      std::vector<Point2> x = uv;
+      if (run(local, faces, x, kLocalSteps) == 0) {
+        uv.swap(x);
+        out.moved_locally = static_cast<int>(free_local);
+        return true;
+      }
+    }
+    return false;
+  };
   for (int pass = 0;; ++pass) {
     const std::vector<Triangle>& faces = out.faces.empty() ? source.faces : out.faces;
+    if (untangle_locally(faces)) {
+      out.flipped_after = 0;
+      break;
+    }
     detail::UvDescent descent(shape, faces, pinned, uv_area);
     if (pass == 0) {
       // Two starts: the composed map, and the harmonic map with the boundary pinned (Garanzha et al.'s usual
@@ -257,7 +301,9 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
     return out;
   }
   out.succeeded = true;
-  out.outcome = "untangled in " + std::to_string(out.rounds) + " rounds, " + std::to_string(out.iterations) + " steps" +
+  out.outcome = (out.moved_locally > 0 ? "untangled locally (" + std::to_string(out.moved_locally) + " vertices moved) in "
+                                       : std::string("untangled in ")) +
+                std::to_string(out.rounds) + " rounds, " + std::to_string(out.iterations) + " steps" +
                 (out.inserted.empty() ? "" : " after splitting " + std::to_string(out.inserted.size()) + " chords");
   out.uv = std::move(candidate.uv);
   return out;

@@ -15,6 +15,9 @@
 // edges joining two boundary vertices) split at its midpoint, the fewest insertions that give every such face
 // a free vertex (a chord shared by two such faces first); the untangler then moves the inserted vertices too.
 //
+// Few folds are first untangled locally: only the free vertices within 2 (then 6) rings of the non-positive
+// faces move, when they are at most a quarter of the free vertices; the whole interior moves only if that fails.
+//
 // Acceptance: the untangled map is returned only when every face is strictly positive (exact predicate) and
 // the verify stage's checks pass on it (one full turn at every interior vertex, each boundary vertex's
 // rotation index as classified), i.e. it is a valid answer without any inserted vertex.
@@ -38,6 +41,7 @@ struct Untangling {
   int flipped_after = 0;   // non-positive faces when it stopped
   int rounds = 0;          // values of eps tried
   int iterations = 0;      // L-BFGS steps over all rounds
+  int moved_locally = 0;   // when the local attempt succeeded: the free vertices it moved (near the folds)
   std::string outcome;     // one line: why it was not attempted, or how it ended
   // The mesh untangling ran on: the source faces (faces empty, inserted empty), or the source with chords of
   // fixed non-positive faces split at their midpoints (inserted[i] is vertex source.vertices.size() + i).

@@ -145,6 +145,54 @@ TEST(UntangleStage, NothingToDoWithoutFlips) {
   EXPECT_EQ(r.flipped_before, 0);
 }
 
+// A few folds in a large grid: one interior vertex pushed across a neighbour. Untangling succeeds, and every
+// vertex farther than 6 rings (edge hops, counted here by a breadth-first search of the test's own) from the
+// folded faces keeps its uv bit for bit: only the neighbourhood of the folds moved.
+TEST(UntangleStage, FewFoldsAreUntangledWhereTheyAre) {
+  const int n = 30;
+  const DiskMesh mesh = validate_mesh(grid(n));
+  BoundaryPolygon polygon;
+  std::vector<Point2> base(mesh.vertices.size());
+  for (std::size_t v = 0; v < base.size(); ++v) base[v] = {mesh.vertices[v].x, mesh.vertices[v].y};
+  for (int v : mesh.boundary_loop) polygon.vertices.push_back(base[v]);
+  const std::vector<int> rotation(polygon.vertices.size(), 0);
+  std::vector<std::vector<int>> neighbours(base.size());
+  for (const Triangle& t : mesh.faces)
+    for (int k = 0; k < 3; ++k) neighbours[t[k]].push_back(t[(k + 1) % 3]), neighbours[t[(k + 1) % 3]].push_back(t[k]);
+  std::mt19937 rng(7);
+  std::uniform_int_distribution<int> cell(3, n - 3);
+  for (int trial = 0; trial < 8; ++trial) {
+    // Vertex (i, j) pushed 1.6 cells towards (i + di, j + dj), across that neighbour.
+    const int i = cell(rng), j = cell(rng), di = trial % 2 ? 1 : -1, dj = trial % 4 < 2 ? 0 : 1;
+    std::vector<Point2> uv = base;
+    const int v = j * (n + 1) + i;
+    uv[v] = {uv[v].x + 1.6 * di / n, uv[v].y + 1.6 * dj / n};
+    const int before = count_folded_by_checker(uv, mesh.faces);
+    ASSERT_GT(before, 0) << trial;
+    const Untangling r = untangle(mesh, mesh.boundary_loop, polygon, rotation, uv);
+    ASSERT_TRUE(r.succeeded) << trial << ": " << r.outcome;
+    EXPECT_EQ(count_folded_by_checker(r.uv, mesh.faces), 0) << trial;
+    std::vector<int> hops(base.size(), -1);
+    std::vector<int> queue;
+    for (const Triangle& t : mesh.faces) {
+      const Point2 &a = uv[t[0]], &b = uv[t[1]], &c = uv[t[2]];
+      if ((b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x) > 0) continue;
+      for (int w : t)
+        if (hops[w] < 0) hops[w] = 0, queue.push_back(w);
+    }
+    for (std::size_t q = 0; q < queue.size(); ++q)
+      for (int w : neighbours[queue[q]])
+        if (hops[w] < 0) hops[w] = hops[queue[q]] + 1, queue.push_back(w);
+    int far = 0;
+    for (std::size_t w = 0; w < base.size(); ++w)
+      if (hops[w] > 6) {
+        ++far;
+        EXPECT_TRUE(r.uv[w] == uv[w]) << trial << ": vertex " << w << " at " << hops[w] << " rings moved";
+      }
+    EXPECT_GT(far, static_cast<int>(base.size()) / 2) << trial;
+  }
+}
+
 // ---- the whole pipeline on certified targets -----------------------------------------------------------
 
 TEST(UntangleCertified, EveryAnswerPassesAndMostNeedNoRefinement) {
