@@ -3,9 +3,11 @@
 #include <charconv>
 #include <climits>
 #include <cmath>
+#include <cstring>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "engine/pipeline.h"
 #include "server/codec/json_codec.h"
@@ -113,7 +115,7 @@ public:
       case State::positions: state_ = State::position; count_ = 0; return true;
       case State::faces:
         state_ = State::face;
-        out_.mesh.faces.emplace_back();
+        out_.mesh.faces.emplace_back().reserve(3);  // one allocation for a triangle, not three
         return true;
       default: return false;
     }
@@ -186,25 +188,29 @@ private:
 // Byte for byte what dump(parametrize_result_to_json(r), pretty) writes (tests/codec/test_json_codec.cpp
 // compares them): the small members through dump / dump_pretty, the big arrays written here.
 
-// A double exactly as nlohmann's serializer writes it (null when not finite). The digits are nlohmann's own
-// (nlohmann::detail::to_chars, Grisu2, the function its serializer calls), not std::to_chars: Grisu2 is not
-// always the shortest or the closest round trip (3.5310992121163152e+16 where std::to_chars writes
-// 3.531099212116315e+16, 237974192.66879266 for ...267), and the answer's bytes must not change.
-void append_double(std::string& out, double x) {
+// A double exactly as nlohmann's serializer writes it (null when not finite), at p; returns the end. The
+// digits are nlohmann's own (nlohmann::detail::to_chars, Grisu2, the function its serializer calls), not
+// std::to_chars: Grisu2 is not always the shortest or the closest round trip (3.5310992121163152e+16 where
+// std::to_chars writes 3.531099212116315e+16, 237974192.66879266 for ...267), and the answer's bytes must
+// not change. Needs kNumberRoom bytes at p.
+constexpr std::size_t kNumberRoom = 32;  // "-", 17 digits, "0.000" or "e-308": at most 25
+char* put_double(char* p, double x) {
   if (!std::isfinite(x)) {  // not reached for a verified map
-    out += "null";
-    return;
+    std::memcpy(p, "null", 4);
+    return p + 4;
   }
-  char buf[64];
-  out.append(buf, nlohmann::detail::to_chars(buf, buf + sizeof buf, x));
+  return nlohmann::detail::to_chars(p, p + kNumberRoom, x);
 }
 
-void append_int(std::string& out, long long v) {
-  char buf[24];
-  out.append(buf, std::to_chars(buf, buf + sizeof buf, v).ptr);
+char* put_int(char* p, long long v) { return std::to_chars(p, p + kNumberRoom, v).ptr; }
+
+char* put_text(char* p, std::string_view s) {
+  std::memcpy(p, s.data(), s.size());
+  return p + s.size();
 }
 
-// The big arrays at depth `depth` of dump_pretty (pretty) or on one line (compact).
+// The big arrays at depth `depth` of dump_pretty (pretty) or on one line (compact). Each row is formatted
+// into a small buffer and appended at once: one call into the string per row, not one per character.
 struct BigArrays {
   const lipmap::ParametrizeResult& r;
   const ordered_json *vertices, *faces, *uv, *inserted;
@@ -212,48 +218,53 @@ struct BigArrays {
   // Writes `v` when it is one of the big arrays' places; false otherwise.
   bool write(const ordered_json& v, int depth, bool pretty, std::string& out) const {
     const RefinedMap& m = r.map;
-    if (&v == vertices) rows(m.vertices.size(), depth, pretty, out, [&](std::size_t i, const char* sep) {
-      const Point3& p = m.vertices[i];
-      out += '[';
-      append_double(out, p.x);
-      out += sep;
-      append_double(out, p.y);
-      out += sep;
-      append_double(out, p.z);
-      out += ']';
+    const std::string_view sep = pretty ? ", " : ",";
+    if (&v == vertices) rows(m.vertices.size(), depth, pretty, out, [&](std::size_t i, char* p) {
+      const Point3& q = m.vertices[i];
+      *p++ = '[';
+      p = put_double(p, q.x);
+      p = put_text(p, sep);
+      p = put_double(p, q.y);
+      p = put_text(p, sep);
+      p = put_double(p, q.z);
+      *p++ = ']';
+      return p;
     });
-    else if (&v == faces) rows(m.faces.size(), depth, pretty, out, [&](std::size_t i, const char* sep) {
+    else if (&v == faces) rows(m.faces.size(), depth, pretty, out, [&](std::size_t i, char* p) {
       const Triangle& t = m.faces[i];
-      out += '[';
-      append_int(out, t[0]);
-      out += sep;
-      append_int(out, t[1]);
-      out += sep;
-      append_int(out, t[2]);
-      out += ']';
+      *p++ = '[';
+      p = put_int(p, t[0]);
+      p = put_text(p, sep);
+      p = put_int(p, t[1]);
+      p = put_text(p, sep);
+      p = put_int(p, t[2]);
+      *p++ = ']';
+      return p;
     });
-    else if (&v == uv) rows(m.uv.size(), depth, pretty, out, [&](std::size_t i, const char* sep) {
-      const Point2& p = m.uv[i];
-      out += '[';
-      append_double(out, p.x);
-      out += sep;
-      append_double(out, p.y);
-      out += ']';
+    else if (&v == uv) rows(m.uv.size(), depth, pretty, out, [&](std::size_t i, char* p) {
+      const Point2& q = m.uv[i];
+      *p++ = '[';
+      p = put_double(p, q.x);
+      p = put_text(p, sep);
+      p = put_double(p, q.y);
+      *p++ = ']';
+      return p;
     });
     else if (&v == inserted) {
       const std::string member(2 * (depth + 2), ' '), close(2 * (depth + 1), ' ');
-      rows(m.inserted.size(), depth, pretty, out, [&](std::size_t i, const char* sep) {
+      rows(m.inserted.size(), depth, pretty, out, [&](std::size_t i, char* p) {
         const InsertedVertex& iv = m.inserted[i];
-        if (pretty) out += "{\n" + member + "\"edge\": [";
-        else out += "{\"edge\":[";
-        append_int(out, iv.a);
-        out += sep;
-        append_int(out, iv.b);
-        if (pretty) out += "],\n" + member + "\"t\": ";
-        else out += "],\"t\":";
-        append_double(out, iv.t);
-        if (pretty) out += "\n" + close;
-        out += '}';
+        if (pretty) p = put_text(put_text(put_text(p, "{\n"), member), "\"edge\": [");
+        else p = put_text(p, "{\"edge\":[");
+        p = put_int(p, iv.a);
+        p = put_text(p, sep);
+        p = put_int(p, iv.b);
+        if (pretty) p = put_text(put_text(put_text(p, "],\n"), member), "\"t\": ");
+        else p = put_text(p, "],\"t\":");
+        p = put_double(p, iv.t);
+        if (pretty) p = put_text(put_text(p, "\n"), close);
+        *p++ = '}';
+        return p;
       });
     } else {
       return false;
@@ -262,30 +273,27 @@ struct BigArrays {
   }
 
   // An array of n structured rows: one line compact, one row per line pretty (dump_pretty's layout).
+  // row(i, p) writes row i at p (at most kRowRoom bytes) and returns its end.
   template <class Row>
   static void rows(std::size_t n, int depth, bool pretty, std::string& out, Row row) {
     if (n == 0) {
       out += "[]";
       return;
     }
-    const char* sep = pretty ? ", " : ",";
-    if (!pretty) {
-      out += '[';
-      for (std::size_t i = 0; i < n; ++i) {
-        if (i) out += ',';
-        row(i, sep);
-      }
-      out += ']';
-      return;
-    }
-    const std::string indent(2 * (depth + 1), ' '), close(2 * depth, ' ');
-    out += "[\n";
+    // Separator and indent, then a row: three numbers and their separators, or an inserted vertex with
+    // two member indents.
+    const std::string lead = pretty ? ",\n" + std::string(2 * (depth + 1), ' ') : ",";
+    const std::size_t room = lead.size() + 8 * kNumberRoom + 4 * lead.size() + 64;
+    std::vector<char> buf(room);
+    out += pretty ? "[\n" : "[";
     for (std::size_t i = 0; i < n; ++i) {
-      if (i) out += ",\n";
-      out += indent;
-      row(i, sep);
+      char* p = buf.data();
+      p = i ? put_text(p, lead) : put_text(p, std::string_view(lead).substr(pretty ? 2 : 1));
+      p = row(i, p);
+      out.append(buf.data(), static_cast<std::size_t>(p - buf.data()));
     }
-    out += "\n" + close + "]";
+    if (pretty) out += "\n" + std::string(2 * depth, ' ');
+    out += ']';
   }
 };
 
