@@ -84,6 +84,10 @@ public:
   void keep_rendering(const std::string& id, const std::string& kind,
                       std::shared_ptr<const std::string> body) override;
   bool uses_local_pool() const override { return false; }
+  bool runs_here(const std::string& id) override {
+    std::lock_guard<std::mutex> lock(running_mutex_);
+    return running_.count(id) != 0;
+  }
   // True when Redis answers PING.
   bool ready() override;
   void sample(RuntimeGauges& gauges) override;
