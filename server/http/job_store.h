@@ -254,6 +254,9 @@ public:
 
   // Whether POST /v1/jobs needs room in this process's worker pool (the shared queue has its own cap).
   virtual bool uses_local_pool() const = 0;
+  // Whether the job runs in this process, which then wakes the waits (JobWaits) when it ends: a long poll need
+  // not look it up again meanwhile.
+  virtual bool runs_here(const std::string& id) = 0;
   // /readyz.
   virtual bool ready() = 0;
   // /metrics: the jobs by state and the queue's own gauges; drops what expired.

@@ -26,6 +26,7 @@ public:
   void keep_rendering(const std::string& id, const std::string& kind,
                       std::shared_ptr<const std::string> body) override;
   bool uses_local_pool() const override { return true; }
+  bool runs_here(const std::string&) override { return true; }
   bool ready() override { return true; }
   void sample(RuntimeGauges& gauges) override;
   void sweep() override { store_.sweep(); }

@@ -189,6 +189,9 @@ std::string Metrics::render(const RuntimeGauges& g) const {
     header(out, "lipmap_local_result_reads_total", "counter",
            "GET .../result answered from this replica's memory instead of a Redis read of the result.");
     sample(out, "lipmap_local_result_reads_total", "", static_cast<double>(g.local_result_reads));
+    header(out, "lipmap_jobs_started_on_submit_total", "counter",
+           "Jobs accepted by this replica and started at once on its free worker (not through the stream's fetcher).");
+    sample(out, "lipmap_jobs_started_on_submit_total", "", static_cast<double>(g.started_on_submit));
   }
 
   header(out, "lipmap_engine_stage_seconds", "histogram", "Engine wall time per stage of finished work.");

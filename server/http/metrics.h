@@ -41,6 +41,7 @@ struct RuntimeGauges {
   std::uint64_t reclaimed = 0, redis_errors = 0;
   std::size_t local_results = 0;          // results this replica computed and keeps in memory
   std::uint64_t local_result_reads = 0;   // GET .../result answered from them (no Redis read of the result)
+  std::uint64_t started_on_submit = 0;    // jobs accepted here and started at once on this replica's free worker
 };
 
 class Metrics {

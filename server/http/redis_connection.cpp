@@ -85,7 +85,8 @@ Reply RedisConnection::command(const std::vector<std::string>& args) {
   return std::move(replies.front());
 }
 
-std::vector<Reply> RedisConnection::pipeline(const std::vector<std::vector<std::string>>& commands) {
+std::vector<Reply> RedisConnection::pipeline(const std::vector<std::vector<std::string>>& commands,
+                                             bool last_may_fail) {
   if (broken_) throw QueueUnavailable("the Redis connection is broken");
   auto fail = [this](const char* what) {
     broken_ = true;
@@ -110,7 +111,7 @@ std::vector<Reply> RedisConnection::pipeline(const std::vector<std::vector<std::
     void* raw = nullptr;
     if (redisGetReply(c_, &raw) != REDIS_OK || !raw) fail("no reply");
     Reply r(static_cast<redisReply*>(raw));
-    if (r->type == REDIS_REPLY_ERROR && first_error.empty())
+    if (r->type == REDIS_REPLY_ERROR && first_error.empty() && !(last_may_fail && replies.size() + 1 == commands.size()))
       first_error = "Redis " + args[0] + ": " + std::string(r->str, r->len);
     replies.push_back(std::move(r));
   }

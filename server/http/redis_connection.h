@@ -57,7 +57,8 @@ public:
   // order. Every reply is read before an error is thrown (ReplyError for the first error reply), so that the
   // connection stays usable. On a busy machine each round trip to another process can cost a scheduling
   // slice; a job's few Redis steps are each one round trip.
-  std::vector<Reply> pipeline(const std::vector<std::vector<std::string>>& commands);
+  // With last_may_fail, an error reply to the last command is returned instead (a command that only helps).
+  std::vector<Reply> pipeline(const std::vector<std::vector<std::string>>& commands, bool last_may_fail = false);
   bool broken() const { return broken_; }
 
 private:

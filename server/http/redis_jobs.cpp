@@ -10,6 +10,7 @@
 
 #include "server/http/handlers.h"
 #include "server/http/metrics.h"
+#include "server/http/redis_scripts.h"
 #include "server/http/service.h"
 
 namespace lipmap::server {
@@ -17,6 +18,7 @@ namespace lipmap::server {
 using nlohmann::json;
 using nlohmann::ordered_json;
 using SysClock = std::chrono::system_clock;
+using namespace redis_scripts;
 
 namespace {
 
@@ -40,84 +42,6 @@ long long now_ms() {
   return std::chrono::duration_cast<std::chrono::milliseconds>(SysClock::now().time_since_epoch()).count();
 }
 SysClock::time_point from_ms(long long ms) { return SysClock::time_point(std::chrono::milliseconds(ms)); }
-
-// The scripts run atomically inside Redis: a job's state changes in one step, so that a DELETE and a
-// worker starting the same job never both win.
-
-// KEYS stream, job; ARGV cap, id, created, deadline, delay_ms, fault, pexpire. {1, entry} or {0, waiting}.
-const char* kSubmit = R"(
-local waiting = redis.call('XLEN', KEYS[1])
-local p = redis.pcall('XPENDING', KEYS[1], 'workers')
-if type(p) == 'table' and p.err == nil then waiting = waiting - p[1] end
-if waiting >= tonumber(ARGV[1]) then return {0, waiting} end
-local entry = redis.call('XADD', KEYS[1], '*', 'id', ARGV[2])
-redis.call('HSET', KEYS[2], 'state', 'queued', 'created', ARGV[3], 'deadline', ARGV[4], 'delay_ms', ARGV[5],
-           'fault', ARGV[6], 'entry', entry, 'attempts', 0)
-redis.call('PEXPIRE', KEYS[2], ARGV[7])
-return {1, entry})";
-
-// KEYS job; ARGV started, owner. {'run', attempts} or {state, 0}.
-const char* kStart = R"(
-local s = redis.call('HGET', KEYS[1], 'state')
-if not s then return {'missing', 0} end
-if s ~= 'queued' and s ~= 'running' then return {s, 0} end
-redis.call('HSET', KEYS[1], 'state', 'running', 'started', ARGV[1], 'owner', ARGV[2])
-return {'run', redis.call('HINCRBY', KEYS[1], 'attempts', 1)})";
-
-// KEYS job, result, req, gone, stream; ARGV state, problem, result_sent ('1' or ''), finished, result_bytes,
-// progress, keep_ms, gone_ms, entry. The stream entry is acknowledged and deleted once the job is final.
-// The result itself is SET just before (a megabyte handed to a script as an argument costs milliseconds of
-// copying into Lua; a plain SET does not). A job deleted, cancelled or failed meanwhile drops it again; one
-// that another replica finished first (it had taken the job over) keeps it: the same job gives the same answer.
-const char* kFinish = R"(
-local s = redis.call('HGET', KEYS[1], 'state')
-local function ack()
-  redis.call('XACK', KEYS[5], 'workers', ARGV[9])
-  redis.call('XDEL', KEYS[5], ARGV[9])
-end
-if not s then redis.call('DEL', KEYS[2]) ack() return 'missing' end
-if s ~= 'running' then
-  if s ~= 'succeeded' then redis.call('DEL', KEYS[2]) end
-  ack()
-  return s
-end
-if ARGV[3] == '1' and redis.call('EXISTS', KEYS[2]) == 0 then return 'no_result' end
-redis.call('HSET', KEYS[1], 'state', ARGV[1], 'finished', ARGV[4], 'result_bytes', ARGV[5], 'progress', ARGV[6])
-if ARGV[2] ~= '' then redis.call('HSET', KEYS[1], 'problem', ARGV[2]) end
-redis.call('PEXPIRE', KEYS[1], ARGV[7])
-redis.call('PEXPIRE', KEYS[3], ARGV[7])
-redis.call('SET', KEYS[4], 'expired', 'PX', ARGV[8])
-ack()
-return 'ok')";
-
-// KEYS job; ARGV problem, finished. The state before: 'queued' (now cancelled), 'running' (flag set), ...
-const char* kCancel = R"(
-local s = redis.call('HGET', KEYS[1], 'state')
-if not s then return 'missing' end
-if s == 'queued' then
-  redis.call('HSET', KEYS[1], 'state', 'cancelled', 'cancel', '1', 'problem', ARGV[1], 'finished', ARGV[2])
-elseif s == 'running' then
-  redis.call('HSET', KEYS[1], 'cancel', '1')
-end
-return s)";
-
-// KEYS job; ARGV progress. A running job's progress (never written on a job that finished or was dropped
-// meanwhile, which would leave a key without expiry); returns its cancel flag.
-const char* kBeat = R"(
-if redis.call('HGET', KEYS[1], 'state') ~= 'running' then return '' end
-redis.call('HSET', KEYS[1], 'progress', ARGV[1])
-return redis.call('HGET', KEYS[1], 'cancel') or '')";
-
-// KEYS stream, job; ARGV entry, id. A running job goes back to the queue (its replica shuts down).
-const char* kHandBack = R"(
-local s = redis.call('HGET', KEYS[2], 'state')
-if s ~= 'running' then return 0 end
-local e = redis.call('XADD', KEYS[1], '*', 'id', ARGV[2])
-redis.call('HSET', KEYS[2], 'state', 'queued', 'entry', e, 'progress', '')
-redis.call('HINCRBY', KEYS[2], 'attempts', -1)
-redis.call('XACK', KEYS[1], 'workers', ARGV[1])
-redis.call('XDEL', KEYS[1], ARGV[1])
-return 1)";
 
 std::string replica_name() {
   char host[256] = {0};
@@ -267,22 +191,59 @@ std::string RedisJobs::enqueue(const JobRequest& job) {
   // Handed over before the job is in the stream: this replica's fetcher may take it from there before the
   // answer below has come back, and must then find the parsed request rather than parse the stored one again.
   if (job.parsed) handoffs_.put(id, {job.parsed, job.asset});
+  // With a free worker here, the job starts on it now: the engine runs while the request is written, and goes
+  // on only if the submit script started the job on this replica (else it is dropped, the job left to the
+  // stream). A job not accepted (queue full, Redis away) never went on.
+  std::promise<bool> accepted;
+  const std::shared_ptr<Running> local = start_on_submit(job, id, accepted.get_future().share());
+  bool opened = false;
+  auto drop_local = [&] {
+    if (!local || opened) return;
+    local->job.request_cancel(CancelReason::shutdown);  // the engine stops at its next check
+    accepted.set_value(false);
+    opened = true;
+  };
   try {
-    // One round trip: the request, its expiry, then the job (refused when the shared queue is full).
-    std::vector<Reply> replies = redis.connection().pipeline(
-        {hset,
-         {"PEXPIRE", req_key(id), std::to_string(keep)},
-         {"EVAL", kSubmit, "2", kStream, job_key(id), std::to_string(service_.config.queue_capacity), id,
-          std::to_string(created), std::to_string(deadline_ms), std::to_string(job.hooks.delay_ms), job.hooks.fault,
-          std::to_string(keep)}});
+    // One round trip: the request, its expiry, then the job (refused when the shared queue is full), and for a
+    // job started here the end of the fetcher's blocking read (it would take a job from the stream for the
+    // worker this one has just taken).
+    std::vector<std::vector<std::string>> commands{
+        std::move(hset),
+        {"PEXPIRE", req_key(id), std::to_string(keep)},
+        {"EVAL", kSubmit, "2", kStream, job_key(id), std::to_string(service_.config.queue_capacity), id,
+         std::to_string(created), std::to_string(deadline_ms), std::to_string(job.hooks.delay_ms), job.hooks.fault,
+         std::to_string(keep), local ? consumer_ : std::string(), std::to_string(now_ms())}};
+    const long long fetcher = fetcher_client_;
+    if (local && fetcher >= 0) commands.push_back({"CLIENT", "UNBLOCK", std::to_string(fetcher)});
+    std::vector<Reply> replies = redis.connection().pipeline(commands, local && fetcher >= 0);
     const Reply& r = replies[2];
     if (!is_array(r.get(), 2)) throw QueueUnavailable("Redis: unexpected answer to the submit script");
-    if (integer(r->element[0]) == 0) {
+    const long long verdict = integer(r->element[0]);
+    if (verdict == 0) {
+      drop_local();
       redis({"DEL", req_key(id)});
       throw SharedQueueFull(static_cast<std::size_t>(integer(r->element[1])));
     }
+    if (verdict == 2 && local) {
+      handoffs_.take(id);
+      local->entry = str(r->element[1]);
+      {
+        std::lock_guard<std::mutex> lock(running_mutex_);
+        running_[id] = local;  // the heartbeat keeps its claim from now on
+      }
+      opened = true;
+      accepted.set_value(true);
+      ++started_on_submit_;
+      service_.event(spdlog::level::info, {{"event", "job_started"}, {"job_id", id}, {"attempt", 1},
+                                           {"consumer", consumer_}, {"on_submit", true}});
+      return id;
+    }
+    drop_local();
+    // Another entry read for this consumer instead (not expected: nothing waited before this one).
+    if (verdict == 3 && is_array(r.get(), 3)) dispatch(str(r->element[1]), str(r->element[2]));
   } catch (...) {
     handoffs_.take(id);  // not accepted: nothing to hand over
+    drop_local();
     throw;
   }
   wake();
@@ -475,6 +436,7 @@ void RedisJobs::sample(RuntimeGauges& g) {
   g.redis_errors = errors_;
   g.local_results = local_.size();
   g.local_result_reads = local_reads_;
+  g.started_on_submit = started_on_submit_;
 }
 
 long long RedisJobs::waiting() {
@@ -505,7 +467,7 @@ void RedisJobs::fetch_loop() {
     wake_.wait_for(lock, d, [&] { return stopping_.load() || wakeups_ != seen; });
   };
   // One entry of a stream reply ([id, [field, value ...]]): dispatched to the pool.
-  auto dispatch = [&](const redisReply* e) {
+  auto take = [&](const redisReply* e) {
     if (!is_array(e, 2) || !is_array(e->element[1])) return;
     const std::string entry = str(e->element[0]);
     std::string id;
@@ -517,10 +479,7 @@ void RedisJobs::fetch_loop() {
       c->command({"XDEL", kStream, entry});
       return;
     }
-    // Refused (a burst of synchronous work filled the pool): the entry stays pending and is taken over after
-    // the visibility timeout.
-    if (service_.pool.submit([this, entry, id] { run_job(entry, id); }) != WorkerPool::Submit::accepted)
-      service_.event(spdlog::level::warn, {{"event", "job_not_taken"}, {"job_id", id}});
+    dispatch(entry, id);
   };
   while (!stopping_) {
     if (!fetching_) {
@@ -530,8 +489,15 @@ void RedisJobs::fetch_loop() {
     try {
       if (!c || c->broken()) {
         c.reset();
+        fetcher_client_ = -1;
         group_ready = false;
         c = connect();
+        // A job started on submit ends this connection's blocking read (CLIENT UNBLOCK), so that the fetcher
+        // does not take a job from the stream for the worker just taken.
+        try {
+          fetcher_client_ = integer(c->command({"CLIENT", "ID"}).get());
+        } catch (const ReplyError&) {  // CLIENT renamed away: the read ends by its own timeout
+        }
         if (backoff.count() > 0)
           service_.event(spdlog::level::info, {{"event", "redis_reconnected"}, {"consumer", consumer_}});
         backoff = std::chrono::milliseconds(0);
@@ -553,13 +519,13 @@ void RedisJobs::fetch_loop() {
       if (is_array(claimed.get(), 2) && is_array(claimed->element[1], 1)) {
         ++reclaimed_;
         service_.event(spdlog::level::warn, {{"event", "job_reclaimed"}, {"entry", str(claimed->element[1]->element[0]->element[0])}});
-        dispatch(claimed->element[1]->element[0]);
+        take(claimed->element[1]->element[0]);
         continue;
       }
       Reply fresh = c->command({"XREADGROUP", "GROUP", kGroup, consumer_, "COUNT", "1", "BLOCK", "500", "STREAMS",
                                 kStream, ">"});
       if (is_array(fresh.get(), 1) && is_array(fresh->element[0], 2) && is_array(fresh->element[0]->element[1], 1))
-        dispatch(fresh->element[0]->element[1]->element[0]);
+        take(fresh->element[0]->element[1]->element[0]);
     } catch (const ReplyError& e) {
       // NOGROUP after Redis lost its data (a restart without persistence): make the group again.
       group_ready = false;
@@ -572,6 +538,13 @@ void RedisJobs::fetch_loop() {
       pause(backoff);
     }
   }
+}
+
+void RedisJobs::dispatch(const std::string& entry, const std::string& id) {
+  // Refused (a burst of synchronous work filled the pool): the entry stays pending and is taken over after
+  // the visibility timeout.
+  if (service_.pool.submit([this, entry, id] { run_job(entry, id); }) != WorkerPool::Submit::accepted)
+    service_.event(spdlog::level::warn, {{"event", "job_not_taken"}, {"job_id", id}});
 }
 
 void RedisJobs::heartbeat_loop() {
@@ -629,7 +602,6 @@ void RedisJobs::finish(RedisConnection& c, const std::string& entry, const std::
 }
 
 void RedisJobs::run_job(const std::string& entry, const std::string& id) {
-  std::shared_ptr<Running> running;
   try {
     Lease redis(*this);
     // One round trip: the start, then the job's fields (read only when it starts).
@@ -644,7 +616,7 @@ void RedisJobs::run_job(const std::string& entry, const std::string& id) {
     }
     const long long attempts = integer(started->element[1]);
     auto h = hash_of(start[1].get());
-    running = std::make_shared<Running>(entry, id);
+    auto running = std::make_shared<Running>(entry, id);
     Job& job = running->job;
     job.mark_running();
     const long long deadline_ms = std::atoll(h["deadline"].c_str());
@@ -663,83 +635,10 @@ void RedisJobs::run_job(const std::string& entry, const std::string& id) {
       running_[id] = running;
     }
     service_.event(spdlog::level::info, {{"event", "job_started"}, {"job_id", id}, {"attempt", attempts}, {"consumer", consumer_}});
-    std::shared_ptr<const std::string> text;
-    ComputedResult local;
-    try {
-      if (attempts > kMaxAttempts)
-        throw InternalError("the job was started " + std::to_string(attempts - 1) +
-                            " times and its replica stopped each time before it finished");
-      if (!parsed && !stored) throw InternalError("the job's request is no longer held by the shared queue");
-      job.token().check();
-      apply_hooks(hooks, job.token());
-      if (!parsed) {
-        codec::LoadedRequest loaded = codec::load_request(stored->input());
-        parsed.emplace();
-        parsed->request = std::make_shared<const codec::ParametrizeRequest>(std::move(loaded.request));
-        if (loaded.asset) parsed->asset = std::make_shared<const gltf::Asset>(std::move(*loaded.asset));
-      }
-      MapOutcome m = run_map(*parsed->request, job.token(), [&job](Stage st, double f) { job.report(st, f); },
-                             service_.metrics);
-      if (m.json->size() > service_.config.max_result_bytes) {
-        job.fail(JobState::failed,
-                 problem("result_too_large", "the result has " + std::to_string(m.json->size()) +
-                                                 " bytes; the shared queue keeps at most " +
-                                                 std::to_string(service_.config.max_result_bytes)));
-      } else {
-        text = m.json;
-        local.result = m.result;
-        local.asset = parsed->asset;
-        job.succeed(m.json, m.result);
-      }
-    } catch (...) {
-      const CancelReason reason = job.cancel_reason();
-      ordered_json p = current_exception_problem(InputKind::parametrize, reason, service_.config.deadline_seconds);
-      job.fail(reason == CancelReason::none ? JobState::failed : JobState::cancelled, std::move(p));
-    }
-    {
-      std::lock_guard<std::mutex> lock(running_mutex_);
-      running_.erase(id);
-    }
-    if (job.cancel_reason() == CancelReason::shutdown) {
-      // This replica stops: another one runs the job.
-      redis({"EVAL", kHandBack, "2", kStream, job_key(id), entry, id});
-      service_.event(spdlog::level::info, {{"event", "job_handed_back"}, {"job_id", id}});
-      wake();
-      return;
-    }
-    const JobSnapshot s = job.snapshot();
-    // Redis may be restarting: a few tries, then the entry stays pending and is taken over (and run again)
-    // once Redis is back.
-    for (int attempt = 0;; ++attempt) {
-      try {
-        if (attempt == 0) {
-          finish(redis.connection(), entry, id, s, text.get());
-        } else {
-          Lease again(*this);
-          finish(again.connection(), entry, id, s, text.get());
-        }
-        break;
-      } catch (const ReplyError&) {
-        throw;
-      } catch (const QueueUnavailable& e) {
-        if (attempt >= 8 || stopping_) throw;
-        std::this_thread::sleep_for(std::chrono::milliseconds(250LL << std::min(attempt, 3)));
-      }
-    }
-    if (text) {
-      local.json = text;
-      local_.put(id, std::move(local));
-    }
-    service_.waits.notify();  // the polls waiting here for this job answer now
-    wake();  // this worker is free: the fetcher may take the next job now
-    service_.metrics.count_job_finished(to_string(s.state));
-    service_.event(spdlog::level::info, {{"event", "job_finished"},
-                                         {"job_id", id},
-                                         {"state", to_string(s.state)},
-                                         {"code", s.problem ? s.problem->value("code", "") : ""},
-                                         {"result_bytes", s.result_bytes}});
+    Outcome outcome = execute(job, attempts, std::move(parsed), stored, hooks);
+    conclude(redis, running, std::move(outcome));
   } catch (const QueueUnavailable& e) {
-    if (running) {
+    {
       std::lock_guard<std::mutex> lock(running_mutex_);
       running_.erase(id);
     }
@@ -747,6 +646,134 @@ void RedisJobs::run_job(const std::string& entry, const std::string& id) {
     note_error("job", e.what());
     service_.event(spdlog::level::warn, {{"event", "job_left_pending"}, {"job_id", id}, {"detail", e.what()}});
   }
+}
+
+std::shared_ptr<RedisJobs::Running> RedisJobs::start_on_submit(const JobRequest& request, const std::string& id,
+                                                               std::shared_future<bool> accepted) {
+  if (!request.parsed || !fetching_ || stopping_) return nullptr;
+  std::lock_guard<std::mutex> lock(start_mutex_);
+  if (!local_capacity()) return nullptr;
+  auto running = std::make_shared<Running>(std::string(), id);
+  running->job.token().set_deadline(request.deadline);
+  Handoffs::Parsed parsed{request.parsed, request.asset};
+  TestHooks hooks = request.hooks;
+  if (service_.pool.submit([this, running, accepted, parsed, hooks] { run_on_submit(running, accepted, parsed, hooks); }) !=
+      WorkerPool::Submit::accepted)
+    return nullptr;
+  return running;
+}
+
+void RedisJobs::run_on_submit(const std::shared_ptr<Running>& running, const std::shared_future<bool>& accepted,
+                              const Handoffs::Parsed& parsed, const TestHooks& hooks) {
+  running->job.mark_running();
+  Outcome outcome = execute(running->job, 1, parsed, std::nullopt, hooks);
+  bool go = false;
+  try {
+    go = accepted.get();
+  } catch (const std::future_error&) {  // the submit failed: the job was not accepted
+  }
+  if (!go) {  // not accepted, or left in the stream for any replica: this run is dropped
+    wake();
+    return;
+  }
+  const std::string& id = running->job.id();
+  try {
+    Lease redis(*this);
+    conclude(redis, running, std::move(outcome));
+  } catch (const QueueUnavailable& e) {
+    {
+      std::lock_guard<std::mutex> lock(running_mutex_);
+      running_.erase(id);
+    }
+    wake();
+    note_error("job", e.what());
+    service_.event(spdlog::level::warn, {{"event", "job_left_pending"}, {"job_id", id}, {"detail", e.what()}});
+  }
+}
+
+RedisJobs::Outcome RedisJobs::execute(Job& job, long long attempts, std::optional<Handoffs::Parsed> parsed,
+                                      const std::optional<StoredRequest>& stored, const TestHooks& hooks) {
+  Outcome out;
+  try {
+    if (attempts > kMaxAttempts)
+      throw InternalError("the job was started " + std::to_string(attempts - 1) +
+                          " times and its replica stopped each time before it finished");
+    if (!parsed && !stored) throw InternalError("the job's request is no longer held by the shared queue");
+    job.token().check();
+    apply_hooks(hooks, job.token());
+    if (!parsed) {
+      codec::LoadedRequest loaded = codec::load_request(stored->input());
+      parsed.emplace();
+      parsed->request = std::make_shared<const codec::ParametrizeRequest>(std::move(loaded.request));
+      if (loaded.asset) parsed->asset = std::make_shared<const gltf::Asset>(std::move(*loaded.asset));
+    }
+    MapOutcome m = run_map(*parsed->request, job.token(), [&job](Stage st, double f) { job.report(st, f); },
+                           service_.metrics);
+    if (m.json->size() > service_.config.max_result_bytes) {
+      job.fail(JobState::failed,
+               problem("result_too_large", "the result has " + std::to_string(m.json->size()) +
+                                               " bytes; the shared queue keeps at most " +
+                                               std::to_string(service_.config.max_result_bytes)));
+    } else {
+      out.text = m.json;
+      out.local.result = m.result;
+      out.local.asset = parsed->asset;
+      job.succeed(m.json, m.result);
+    }
+  } catch (...) {
+    const CancelReason reason = job.cancel_reason();
+    ordered_json p = current_exception_problem(InputKind::parametrize, reason, service_.config.deadline_seconds);
+    job.fail(reason == CancelReason::none ? JobState::failed : JobState::cancelled, std::move(p));
+  }
+  return out;
+}
+
+void RedisJobs::conclude(Lease& redis, const std::shared_ptr<Running>& running, Outcome outcome) {
+  const std::string& id = running->job.id();
+  const std::string& entry = running->entry;
+  Job& job = running->job;
+  {
+    std::lock_guard<std::mutex> lock(running_mutex_);
+    running_.erase(id);
+  }
+  if (job.cancel_reason() == CancelReason::shutdown) {
+    // This replica stops: another one runs the job.
+    redis({"EVAL", kHandBack, "2", kStream, job_key(id), entry, id});
+    service_.event(spdlog::level::info, {{"event", "job_handed_back"}, {"job_id", id}});
+    wake();
+    return;
+  }
+  const JobSnapshot s = job.snapshot();
+  // Redis may be restarting: a few tries, then the entry stays pending and is taken over (and run again)
+  // once Redis is back.
+  for (int attempt = 0;; ++attempt) {
+    try {
+      if (attempt == 0) {
+        finish(redis.connection(), entry, id, s, outcome.text.get());
+      } else {
+        Lease again(*this);
+        finish(again.connection(), entry, id, s, outcome.text.get());
+      }
+      break;
+    } catch (const ReplyError&) {
+      throw;
+    } catch (const QueueUnavailable& e) {
+      if (attempt >= 8 || stopping_) throw;
+      std::this_thread::sleep_for(std::chrono::milliseconds(250LL << std::min(attempt, 3)));
+    }
+  }
+  if (outcome.text) {
+    outcome.local.json = outcome.text;
+    local_.put(id, std::move(outcome.local));
+  }
+  service_.waits.notify();  // the polls waiting here for this job answer now
+  wake();  // this worker is free: the fetcher may take the next job now
+  service_.metrics.count_job_finished(to_string(s.state));
+  service_.event(spdlog::level::info, {{"event", "job_finished"},
+                                       {"job_id", id},
+                                       {"state", to_string(s.state)},
+                                       {"code", s.problem ? s.problem->value("code", "") : ""},
+                                       {"result_bytes", s.result_bytes}});
 }
 
 void RedisJobs::hand_back_running() {

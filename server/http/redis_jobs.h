@@ -22,14 +22,19 @@
 // memory instead of Redis and a rendering is made without running the job again. Whether the job is still
 // held (not deleted or expired) is always asked of Redis.
 //
-// The replica that accepted a job also keeps the request it parsed (Handoffs) until a worker of its own
-// starts the job, so that the common case (the job runs where it came in) neither reads the stored body back
-// from Redis nor parses it again; a job taken by another replica, or reclaimed, loads the stored request.
+// A replica that accepts a job while one of its workers is free starts it there at once: the worker runs the
+// engine while the request is written, and the submit script reads the new entry for this replica's consumer
+// and marks the job running in the same step (the job goes on only if the script did so; the 202 is sent only
+// after the write). Otherwise the job waits in the stream for any replica, and the accepting replica keeps
+// the request it parsed (Handoffs) until a worker of its own starts the job, so that a job run where it came
+// in neither reads the stored body back from Redis nor parses it again; a job taken by another replica, or
+// reclaimed, loads the stored request.
 #pragma once
 
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <future>
 #include <cstdint>
 #include <list>
 #include <map>
@@ -79,6 +84,10 @@ public:
   void keep_rendering(const std::string& id, const std::string& kind,
                       std::shared_ptr<const std::string> body) override;
   bool uses_local_pool() const override { return false; }
+  bool runs_here(const std::string& id) override {
+    std::lock_guard<std::mutex> lock(running_mutex_);
+    return running_.count(id) != 0;
+  }
   // True when Redis answers PING.
   bool ready() override;
   void sample(RuntimeGauges& gauges) override;
@@ -100,7 +109,23 @@ private:
   Cancel cancel_in_redis(const std::string& id);
   void fetch_loop();
   void heartbeat_loop();
+  // Fetched from the stream (or taken over): the start script, then execute() and conclude().
   void run_job(const std::string& entry, const std::string& id);
+  // A job accepted here, started on a free worker of this replica before the submit's answer (nullptr when
+  // none is free); it goes on once `accepted` says the submit script started it here.
+  std::shared_ptr<Running> start_on_submit(const JobRequest& request, const std::string& id,
+                                           std::shared_future<bool> accepted);
+  void run_on_submit(const std::shared_ptr<Running>& running, const std::shared_future<bool>& accepted,
+                     const Handoffs::Parsed& parsed, const TestHooks& hooks);
+  struct Outcome {
+    std::shared_ptr<const std::string> text;  // the result JSON, when the job succeeded
+    ComputedResult local;
+  };
+  Outcome execute(Job& job, long long attempts, std::optional<Handoffs::Parsed> parsed,
+                  const std::optional<StoredRequest>& stored, const TestHooks& hooks);
+  // The job ran: handed back (this replica stops) or finished in Redis.
+  void conclude(Lease& redis, const std::shared_ptr<Running>& running, Outcome outcome);
+  void dispatch(const std::string& entry, const std::string& id);  // run_job on the pool
   void finish(RedisConnection& c, const std::string& entry, const std::string& id, const JobSnapshot& s,
               const std::string* result);
   void ack(RedisConnection& c, const std::string& entry);
@@ -125,7 +150,9 @@ private:
   Handoffs handoffs_;
 
   std::atomic<bool> fetching_{true}, stopping_{false};
-  std::atomic<std::uint64_t> reclaimed_{0}, errors_{0}, local_reads_{0};
+  std::atomic<std::uint64_t> reclaimed_{0}, errors_{0}, local_reads_{0}, started_on_submit_{0};
+  std::mutex start_mutex_;                   // two submits never both take the last free worker
+  std::atomic<long long> fetcher_client_{-1};  // the fetcher connection's CLIENT ID, to end its blocking read
   std::mutex wake_mutex_;
   std::condition_variable wake_;
   std::uint64_t wakeups_ = 0;  // with wake_mutex_

@@ -255,3 +255,48 @@ local_reads() { curl -sf "$1/metrics" | awk '$1 == "lipmap_local_result_reads_to
   expect 410 job_gone
   [ "$(local_reads "${!url}")" = $((before + 1)) ]
 }
+
+started_on_submit() { curl -sf "$1/metrics" | awk '$1 == "lipmap_jobs_started_on_submit_total" {print $2}'; }
+# started_by ID: the numbers of the replicas whose log says they started job ID.
+started_by() {
+  local n
+  for n in 1 2 3; do
+    grep '"event":"job_started"' "$BATS_FILE_TMPDIR/replica$n.log" | grep -q "\"job_id\":\"$1\"" && echo "$n"
+  done
+  return 0
+}
+# idle URL: the replica's worker is free and no job waits in the stream (a job accepted now starts there).
+idle() { curl -sf "$1/metrics" | grep -x -e 'lipmap_workers_busy 0' -e 'lipmap_shared_queue_depth 0' | wc -l | grep -qx 2; }
+
+@test "A job accepted by a replica with a free worker starts there at once; with that worker busy, another replica runs it" {
+  local n url before id long other
+  for n in 1 2 3; do url="REPLICA${n}_URL"; wait_until 60 idle "${!url}"; done
+  before="$(started_on_submit "$REPLICA1_URL")"
+  # Replica 1 is idle: the job runs there, started by the submit itself (not through the stream's fetcher).
+  id="$(submit "$REPLICA1_URL" "$(body_file 1)")"
+  [ "$(wait_final "$NGINX_URL" "$id" 60)" = succeeded ]
+  [ "$(started_on_submit "$REPLICA1_URL")" = $((before + 1)) ]
+  [ "$(started_by "$id")" = 1 ]
+  grep '"event":"job_started"' "$BATS_FILE_TMPDIR/replica1.log" | grep "\"job_id\":\"$id\"" | grep -q '"on_submit":true'
+  call GET "$REPLICA2_URL/v1/jobs/$id/result"
+  expect 200
+  same_answer "$answer" "$(reference 1 "$(body_file 1)")"
+  # Replica 1's only worker busy with a long job (started there too): the next job it accepts waits in the
+  # stream, and one of the idle replicas runs it.
+  wait_until 30 idle "$REPLICA1_URL"
+  long="$(submit "$REPLICA1_URL" "$(body_file 0)" -H 'X-Lipmap-Test-Delay-Ms: 4000')"
+  [ "$(started_on_submit "$REPLICA1_URL")" = $((before + 2)) ]
+  other="$(submit "$REPLICA1_URL" "$(body_file 3)")"
+  [ "$(wait_final "$NGINX_URL" "$other" 60)" = succeeded ]
+  n="$(started_by "$other")"
+  [ "$n" = 2 ] || [ "$n" = 3 ]
+  [ "$(started_on_submit "$REPLICA1_URL")" = $((before + 2)) ]
+  call GET "$NGINX_URL/v1/jobs/$other/result"
+  expect 200
+  same_answer "$answer" "$(reference 3 "$(body_file 3)")"
+  [ "$(wait_final "$NGINX_URL" "$long" 60)" = succeeded ]
+  [ "$(started_by "$long")" = 1 ]
+  call GET "$NGINX_URL/v1/jobs/$long/result"
+  expect 200
+  same_answer "$answer" "$(reference 0 "$(body_file 0)")"
+}
