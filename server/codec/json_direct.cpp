@@ -273,7 +273,7 @@ struct BigArrays {
   }
 
   // An array of n structured rows: one line compact, one row per line pretty (dump_pretty's layout).
-  // row(i, p) writes row i at p (at most kRowRoom bytes) and returns its end.
+  // row(i, p) writes row i at p (within the buffer sized below) and returns its end.
   template <class Row>
   static void rows(std::size_t n, int depth, bool pretty, std::string& out, Row row) {
     if (n == 0) {

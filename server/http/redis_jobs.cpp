@@ -638,13 +638,7 @@ void RedisJobs::run_job(const std::string& entry, const std::string& id) {
     Outcome outcome = execute(job, attempts, std::move(parsed), stored, hooks);
     conclude(redis, running, std::move(outcome));
   } catch (const QueueUnavailable& e) {
-    {
-      std::lock_guard<std::mutex> lock(running_mutex_);
-      running_.erase(id);
-    }
-    wake();
-    note_error("job", e.what());
-    service_.event(spdlog::level::warn, {{"event", "job_left_pending"}, {"job_id", id}, {"detail", e.what()}});
+    leave_pending(id, e.what());
   }
 }
 
@@ -681,14 +675,19 @@ void RedisJobs::run_on_submit(const std::shared_ptr<Running>& running, const std
     Lease redis(*this);
     conclude(redis, running, std::move(outcome));
   } catch (const QueueUnavailable& e) {
-    {
-      std::lock_guard<std::mutex> lock(running_mutex_);
-      running_.erase(id);
-    }
-    wake();
-    note_error("job", e.what());
-    service_.event(spdlog::level::warn, {{"event", "job_left_pending"}, {"job_id", id}, {"detail", e.what()}});
+    leave_pending(id, e.what());
   }
+}
+
+// Redis went away while the job ended here: its entry stays pending and is taken over (run again) later.
+void RedisJobs::leave_pending(const std::string& id, const char* why) {
+  {
+    std::lock_guard<std::mutex> lock(running_mutex_);
+    running_.erase(id);
+  }
+  wake();
+  note_error("job", why);
+  service_.event(spdlog::level::warn, {{"event", "job_left_pending"}, {"job_id", id}, {"detail", why}});
 }
 
 RedisJobs::Outcome RedisJobs::execute(Job& job, long long attempts, std::optional<Handoffs::Parsed> parsed,

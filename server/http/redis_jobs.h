@@ -126,6 +126,7 @@ private:
   // The job ran: handed back (this replica stops) or finished in Redis.
   void conclude(Lease& redis, const std::shared_ptr<Running>& running, Outcome outcome);
   void dispatch(const std::string& entry, const std::string& id);  // run_job on the pool
+  void leave_pending(const std::string& id, const char* why);
   void finish(RedisConnection& c, const std::string& entry, const std::string& id, const JobSnapshot& s,
               const std::string* result);
   void ack(RedisConnection& c, const std::string& entry);
