@@ -175,6 +175,9 @@ int main(int argc, char** argv) {
           r.flips_after_untangle = res.untangling.attempted ? res.untangling.flipped_after : res.relocation.flipped_after;
           r.untangled = res.untangling.succeeded;
           r.untangle_outcome = res.untangling.outcome;
+          if (res.map.regions > 0)
+            r.untangle_outcome += "; refined in " + std::to_string(res.map.regions) + " regions around the folds (" +
+                                  std::to_string(res.map.region_faces) + " faces)";
           r.iterations = res.optimization.iterations;
           r.t_untangle = res.timings.untangle;
           r.t_refine = res.timings.refine;

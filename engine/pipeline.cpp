@@ -13,6 +13,7 @@
 #include "engine/direct_map.h"
 #include "engine/extremal_relax.h"
 #include "engine/flip_check.h"
+#include "engine/fold_region.h"
 #include "engine/reference_metric.h"
 #include "engine/target_mesh.h"
 #include "engine/teichmuller.h"
@@ -138,11 +139,52 @@ const char* to_string(Stage stage) {
 
 namespace {
 
-// One run of the pipeline. relax_max_k: finish with the extremal relaxation (max K) in place of optimize,
-// whatever options.method (method extremal's second start, see parametrize below).
 ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& raw_boundary,
                                    const ParametrizeOptions& options, const CancelToken* cancel,
-                                   const ProgressFn& progress, bool relax_max_k) {
+                                   const ProgressFn& progress, bool relax_max_k, bool in_region = false);
+
+// Refinement only where the untangler failed (engine/fold_region.h): the regions around the folds of its last
+// iterate, each mapped by the paper's path onto the image of its own boundary, spliced, and kept only when the
+// whole map passes verify. Regions of 2 rings first, then 6 (a larger region's boundary polygon is further from
+// the folds, so more often self-overlapping). Empty when no attempt passes: the whole mesh is refined then.
+std::optional<RefinedMap> refine_in_fold_regions(const DiskMesh& mesh, const std::vector<int>& loop,
+                                                 const BoundaryPolygon& polygon, const std::vector<int>& rotation,
+                                                 const std::vector<Point2>& uv, const ParametrizeOptions& options,
+                                                 const CancelToken* cancel) {
+  ParametrizeOptions inner = options;
+  inner.max_iterations = 0;  // the whole map is optimized afterwards
+  inner.optimize = OptimizeEnergy::none;
+  for (int rings : {2, 6}) {
+    const FoldRegions regions = fold_regions(mesh, loop, polygon.vertices, rotation, uv, rings);
+    if (!regions.failure.empty()) continue;
+    std::vector<RefinedMap> maps;
+    try {
+      for (const FoldRegion& r : regions.regions)
+        maps.push_back(parametrize_once(r.mesh, r.boundary, inner, cancel, {}, false, true).map);
+    } catch (const InputError&) {  // e.g. a region's boundary polygon is not self-overlapping
+      continue;
+    } catch (const InternalError&) {
+      continue;
+    }
+    RefinedMap spliced = splice_regions(mesh, uv, regions, maps);
+    try {
+      verify_map(mesh, loop, polygon, rotation, spliced);
+    } catch (const InternalError&) {
+      continue;
+    }
+    spliced.regions = static_cast<int>(regions.regions.size());
+    spliced.region_faces = regions.region_faces;
+    return spliced;
+  }
+  return std::nullopt;
+}
+
+// One run of the pipeline. relax_max_k: finish with the extremal relaxation (max K) in place of optimize,
+// whatever options.method (method extremal's second start, see parametrize below). in_region: a fold region's
+// own run (refine_in_fold_regions), which refines its whole mesh rather than regions of it again.
+ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& raw_boundary,
+                                   const ParametrizeOptions& options, const CancelToken* cancel,
+                                   const ProgressFn& progress, bool relax_max_k, bool in_region) {
   const auto start = Clock::now();
   check_options(options);
   ParametrizeResult out;
@@ -385,6 +427,12 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
     // An untangled map is the answer as it stands: refine(..., false) would only rebuild the composed map
     // that it replaces (and its flip count, which is reported from the relocation below).
     if (out.untangling.succeeded) return untangled_map(work_mesh, out.untangling);
+    if (!in_region && out.untangling.attempted && !metric && options.method != MapMethod::extremal) {
+      std::optional<RefinedMap> local = refine_in_fold_regions(work_mesh, input.boundary.loop, work_polygon,
+                                                               out.classification.rotation_indices,
+                                                               out.untangling.uv, options, cancel);
+      if (local) return std::move(*local);
+    }
     return refine(work_mesh, input.boundary.loop, out.classification.rotation_indices, source_disk, target,
                   disk.target.uv, composition, options.refine, cancel);
   });

@@ -33,6 +33,9 @@ struct RefinedMap {
   int refined_faces = 0;                 // source faces that carried inserted points at some time
   int points_before_simplification = 0;  // inserted points before the rounds of Fig. 11
   int simplification_rounds = 0;
+  // When refinement ran only around the folds the untangler left (engine/fold_region.h): the regions and their
+  // faces; 0 when it ran on the whole mesh (or not at all).
+  int regions = 0, region_faces = 0;
   double refine_ms = 0, simplify_ms = 0, triangulate_ms = 0;
 };
 

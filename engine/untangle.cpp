@@ -289,6 +289,7 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
                   std::to_string(stuck) + " around vertices with only boundary neighbours) after " +
                   std::to_string(out.rounds) + " rounds, " + std::to_string(out.iterations) + " steps, " +
                   std::to_string(out.inserted.size()) + " chords split";
+    out.uv = std::move(uv);  // the last iterate: where its folds are is where refinement is needed
     return out;
   }
   // Every face positive; the angle sums and rotation indices are verify's checks, run on the candidate.
@@ -298,6 +299,7 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
     verify_map(source, loop, polygon, rotation, candidate);
   } catch (const InternalError& e) {
     out.outcome = std::string("failed: every face positive, but ") + e.what();
+    out.uv = std::move(candidate.uv);
     return out;
   }
   out.succeeded = true;

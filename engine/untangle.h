@@ -47,7 +47,9 @@ struct Untangling {
   // fixed non-positive faces split at their midpoints (inserted[i] is vertex source.vertices.size() + i).
   std::vector<InsertedVertex> inserted;
   std::vector<Triangle> faces;
-  std::vector<Point2> uv;  // the untangled map (one per vertex of that mesh) when succeeded
+  // The untangled map (one per vertex of that mesh) when succeeded; when attempted and failed, its last iterate
+  // (engine/fold_region.h refines only around the folds left in it).
+  std::vector<Point2> uv;
 };
 
 // The untangled answer as a refined map (the source mesh, or its chord splits), uv moved out of u.

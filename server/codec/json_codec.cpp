@@ -621,7 +621,9 @@ ordered_json detail::result_json(const lipmap::ParametrizeResult& r, bool big) {
                      {"flipped_after_relocation", r.relocation.flipped_after},
                      {"refined_faces", m.refined_faces},
                      {"points_before_simplification", m.points_before_simplification},
-                     {"simplification_rounds", m.simplification_rounds}};
+                     {"simplification_rounds", m.simplification_rounds},
+                     {"regions", m.regions},
+                     {"region_faces", m.region_faces}};
   d["untangling"] = {{"attempted", r.untangling.attempted},
                      {"succeeded", r.untangling.succeeded},
                      {"flipped_before", r.untangling.flipped_before},

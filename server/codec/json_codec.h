@@ -118,7 +118,8 @@ std::optional<std::vector<Point2>> metric_from_json(const nlohmann::json& metric
 //                  "target_mesh": {"vertices", "faces", "pieces", "min_angle_deg"},
 //                  "intermediate_maps": {"source", "target"} ("primary" | "mean_value" | "tutte"),
 //                  "refinement": {"relocated_vertices", "flipped_after_relocation", "refined_faces",
-//                                 "points_before_simplification", "simplification_rounds"},
+//                                 "points_before_simplification", "simplification_rounds", "regions",
+//                                 "region_faces"},
 //                  "distortion": {"max", "mean", "histogram": {"edges": [1, 1.1, ..., 10], "counts": [...]}},
 //                  "timings_ms": {"validate", "classify", "target_mesh", "intermediate_maps", "compose",
 //                                 "refine", "verify", "quality", "total"}}}
