@@ -437,6 +437,11 @@ int main(int argc, char** argv) {
               lipmap::to_string(g_options.optimize), g_peer ? "" : " [--no-peer: CGAL not run]");
   std::printf("machine: %s %s %s %s; %u hardware threads (nproc); %s\n", u.sysname, u.nodename, u.release, u.machine,
               std::thread::hardware_concurrency(), cpu_model().c_str());
+  // The allocator's setting changes large-mesh times by up to 2x on VMs (docs/architecture.md, "Huge pages").
+  const char* tunables = std::getenv("GLIBC_TUNABLES");
+  std::printf("malloc: %s\n", tunables && std::strstr(tunables, "glibc.malloc.hugetlb=1")
+                                   ? "transparent huge pages (GLIBC_TUNABLES glibc.malloc.hugetlb=1)"
+                                   : "glibc default (4 KiB pages; the container image sets glibc.malloc.hugetlb=1)");
   std::printf("median of %d run%s per row (budget %.0f s per row); times in ms; peak = max resident set of the row's "
               "own process\n", runs, runs == 1 ? "" : "s", budget_s);
   std::printf("\n%-26s %-11s %-24s %7s %7s %6s %5s %9s %9s %9s %9s %9s %8s %8s %9s %7s\n", "model", "target", "verdict",

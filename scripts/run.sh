@@ -17,6 +17,8 @@ jobs="${LIPMAP_JOBS:-2}"
 export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$PWD}"
 export LIPMAP_HOST="${LIPMAP_HOST:-127.0.0.1}"
 export LIPMAP_PORT="${LIPMAP_PORT:-8080}"
+# Large mesh arrays on transparent huge pages, as in the container image (docs/architecture.md, "Huge pages").
+export GLIBC_TUNABLES="${GLIBC_TUNABLES:-glibc.malloc.hugetlb=1}"
 polygon="${1:-tests/data/polygons/spiral_overlapping.json}"
 mesh_request="tests/data/requests/grid8_spiral.json"
 
