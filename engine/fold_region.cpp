@@ -161,6 +161,15 @@ std::string cut_regions(const DiskMesh& source, const std::vector<char>& in, con
 
 }  // namespace
 
+void grow_by_rings(const std::vector<Triangle>& faces, std::vector<char>& marked, int rings) {
+  for (int r = 0; r < rings; ++r) {
+    std::vector<char> next = marked;
+    for (const Triangle& t : faces)
+      if (marked[t[0]] || marked[t[1]] || marked[t[2]]) next[t[0]] = next[t[1]] = next[t[2]] = 1;
+    marked.swap(next);
+  }
+}
+
 FoldRegions fold_regions(const DiskMesh& source, const std::vector<int>& loop, const std::vector<Point2>& polygon,
                          const std::vector<int>& rotation, const std::vector<Point2>& uv, int rings) {
   FoldRegions out;
@@ -191,12 +200,7 @@ FoldRegions fold_regions(const DiskMesh& source, const std::vector<int>& loop, c
       near[v] = 1;
       ++out.seed_vertices;
     }
-  for (int r = 0; r < rings; ++r) {
-    std::vector<char> next = near;
-    for (const Triangle& t : source.faces)
-      if (near[t[0]] || near[t[1]] || near[t[2]]) next[t[0]] = next[t[1]] = next[t[2]] = 1;
-    near.swap(next);
-  }
+  grow_by_rings(source.faces, near, rings);
   std::vector<char> in(nf, 0);
   for (int f = 0; f < nf; ++f) {
     const Triangle& t = source.faces[f];

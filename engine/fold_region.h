@@ -39,6 +39,10 @@ struct FoldRegions {
   std::string failure;              // when non-empty: why no regions (then `regions` is empty)
 };
 
+// Marks, in place, the vertices within `rings` rings (over `faces`) of the marked ones: each ring adds the
+// corners of every face with a marked corner. (Untangling's local attempts use the same neighbourhoods.)
+void grow_by_rings(const std::vector<Triangle>& faces, std::vector<char>& marked, int rings);
+
 // The regions around the folds of uv (one point per source vertex, loop[k] at polygon[k]; rotation[k] the
 // classification's R_k): the faces with a corner within `rings` rings of a seed face's corners, with holes
 // filled and pinched vertices' stars added until every connected piece is a disk. Fails (with a reason) when

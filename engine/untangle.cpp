@@ -8,6 +8,7 @@
 #include "engine/detail/uv_descent.h"
 #include "engine/error.h"
 #include "engine/flip_check.h"
+#include "engine/fold_region.h"
 #include "engine/refine.h"
 #include "engine/verify.h"
 
@@ -44,12 +45,7 @@ std::vector<char> near_folds(const std::vector<Triangle>& faces, const std::vect
   std::vector<char> near(nv, 0);
   for (const Triangle& t : faces)
     if (orientation_sign(uv[t[0]], uv[t[1]], uv[t[2]]) <= 0) near[t[0]] = near[t[1]] = near[t[2]] = 1;
-  for (int r = 0; r < rings; ++r) {
-    std::vector<char> next = near;
-    for (const Triangle& t : faces)
-      if (near[t[0]] || near[t[1]] || near[t[2]]) next[t[0]] = next[t[1]] = next[t[2]] = 1;
-    near.swap(next);
-  }
+  grow_by_rings(faces, near, rings);
   return near;
 }
 
