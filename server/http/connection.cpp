@@ -149,8 +149,9 @@ thread_local DeadlineStream* tl_stream = nullptr;
 // Set by ConnectionQueue on the listener thread while it runs a connection beyond the cap.
 thread_local bool tl_refuse = false;
 
-// Closes refused connections after their peer has read the 503: closing a socket with unread input makes
-// the kernel send a reset, which can destroy the answer before the client reads it. Each socket is kept
+// Closes connections after their peer has read the last answer (a 503 refusal, a 413 sent before the body):
+// closing a socket with unread input makes the kernel send a reset, which can destroy the answer before the
+// client reads it. Each socket is kept
 // (write side shut) until the peer closes or 2 s pass; at most 64 at once, beyond which they close at once.
 class Closer {
 public:
@@ -273,8 +274,10 @@ private:
       --count;
     }
     tl_stream = nullptr;
-    ::shutdown(sock, SHUT_RDWR);
-    ::close(sock);
+    // Lingering close, as for refusals: an answer sent before the body was read (413, 503) would otherwise be
+    // destroyed by the reset that closing with unread input sends, while the client is still sending.
+    ::shutdown(sock, SHUT_WR);
+    closer_.add(sock);
     return ret;
   }
 
