@@ -16,7 +16,7 @@ namespace {
 
 using detail::Pt;
 
-Pt pt(const Point2& p) { return Pt(p.x, p.y); }
+using detail::pt;
 
 // The stored (s, t) and the read-back (s, 1 - t) of every vertex.
 struct Stored {

@@ -3,29 +3,103 @@
 #include "engine/fold_region.h"
 
 #include <algorithm>
-#include <cmath>
+#include <optional>
 
 #include "engine/boundary_polygon.h"
-#include "engine/flip_check.h"
+#include "engine/detail/exact_predicates.h"
 #include "engine/mesh_topology.h"
 
 namespace lipmap {
 namespace {
 
-constexpr double kTwoPi = 6.283185307179586;
+using detail::pt;
 
-// The angle at a of triangle (a, b, c), from b - a counterclockwise to c - a, in (-pi, pi]: positive exactly
-// for a counterclockwise triangle (up to rounding).
-double corner_angle(const Point2& a, const Point2& b, const Point2& c) {
-  const double ux = b.x - a.x, uy = b.y - a.y, vx = c.x - a.x, vy = c.y - a.y;
-  return std::atan2(ux * vy - uy * vx, ux * vx + uy * vy);
+// Where a vertex sits on the source's boundary polygon: loop index k (-1 inside), the polygon's neighbours
+// and R_k. Its full turn is the polygon's interior angle plus 2 pi R_k, or 2 pi inside (paper 3.2).
+struct FullTurns {
+  const std::vector<int>& loop_index;
+  const std::vector<Point2>& polygon;
+  const std::vector<int>& rotation;
+
+  // The full turns of v's full turn beyond the plain sweep from the ray to its next neighbour to the ray to
+  // its previous one: 1 inside (a closed chain); on the polygon R_k, plus one at a spike (App. B).
+  int turns(int v) const {
+    const int k = loop_index[v];
+    if (k < 0) return 1;
+    const std::size_t n = polygon.size();
+    return rotation[k] + (detail::sector(pt(polygon[k]), pt(polygon[(k + 1) % n]), pt(polygon[(k + n - 1) % n])) == 0);
+  }
+};
+
+// One corner at v: the face's index and the sweep of its corner, counterclockwise from `from` to `to`.
+struct Corner {
+  int face;
+  Point2 from, to;
+};
+
+// v's corners in counterclockwise order (the clockwise fan read backwards, App. B): at a boundary vertex
+// from the face on the edge to its next boundary vertex to the one on the edge from its previous one.
+std::vector<Corner> corners_ccw(const MeshTopology& topo, const std::vector<Point2>& uv, int v) {
+  const HalfedgeRange fan = topo.fan(v);
+  std::vector<Corner> out;
+  out.reserve(fan.size());
+  for (std::size_t i = fan.size(); i-- > 0;)
+    out.push_back({MeshTopology::face_of(fan[i]), uv[topo.to(fan[i])], uv[topo.from(MeshTopology::prev(fan[i]))]});
+  return out;
 }
 
-// A polygon's interior angle at p (interior on the left), in [0, 2 pi): from the edge to next,
-// counterclockwise, to the edge to prev.
-double polygon_angle(const Point2& prev, const Point2& p, const Point2& next) {
-  const double a = corner_angle(p, next, prev);
-  return a < 0 ? a + kTwoPi : a;
+// Does v's star, all of its faces strictly positive, make its full turn (verify's angle-sum test, exactly)?
+bool makes_full_turn(const MeshTopology& topo, const std::vector<Point2>& uv, const FullTurns& full, int v) {
+  const std::vector<Corner> corners = corners_ccw(topo, uv, v);
+  const int k = full.loop_index[v];
+  if (k < 0) {
+    detail::PositiveChainTurns count(pt(uv[v]));
+    for (const Corner& c : corners) count.add(pt(c.from), pt(c.to));
+    return count.turns() == 1;
+  }
+  detail::TurnCount count(pt(uv[v]), pt(corners.front().from));
+  for (const Corner& c : corners) count.add(pt(c.from), pt(c.to));
+  return count.turns() == full.turns(v);
+}
+
+// The rotation index a region must have at its boundary vertex v for the spliced map to make v's full turn:
+// the region's corners at v (one run: make_disks saw to it) sweep from q to p, the images of its loop's next
+// and previous vertex, and must fill what the positive corners outside leave of the full turn. Counted
+// exactly (App. B) by chaining the outside corners with the plain sweep q -> p in place of the region's run:
+// if that chain makes T full turns beyond sweep(start, end), the region's angle is sweep(q, p) + 2 pi (F - T),
+// F the turns of the full turn (1 inside; on the polygon R_k, plus one at a spike). Sets q and p; nothing
+// when v's region corners are not one run with corners outside (make_disks and the cut rule both out).
+std::optional<int> region_rotation_index(const MeshTopology& topo, const std::vector<Point2>& uv, const FullTurns& full,
+                          const std::vector<char>& in, int v, Point2& q, Point2& p) {
+  const std::vector<Corner> corners = corners_ccw(topo, uv, v);
+  const int n = static_cast<int>(corners.size());
+  const int k = full.loop_index[v];
+  // On the polygon the chain runs from its next vertex to its previous one; inside it closes, starting just
+  // after the region's run (so that the run ends the chain where it started, at p).
+  int start = 0;
+  if (k < 0)
+    while (start < n && !(!in[corners[start].face] && in[corners[(start + n - 1) % n].face])) ++start;
+  if (start == n) return std::nullopt;
+  const detail::Pt c = pt(uv[v]);
+  detail::TurnCount count(c, pt(corners[start].from));
+  enum class Run { before, inside, after } run = Run::before;
+  for (int i = 0; i < n; ++i) {
+    const Corner& corner = corners[(start + i) % n];
+    if (in[corner.face]) {
+      if (run == Run::after) return std::nullopt;
+      if (run == Run::before) q = corner.from;
+      run = Run::inside;
+      p = corner.to;
+      continue;
+    }
+    if (run == Run::inside) {
+      count.add(pt(q), pt(p));
+      run = Run::after;
+    }
+    count.add(pt(corner.from), pt(corner.to));
+  }
+  if (run == Run::inside) count.add(pt(q), pt(p));
+  return detail::rotation_index(c, pt(q), pt(p), full.turns(v) - count.turns());
 }
 
 // Runs of region faces in v's fan (cyclic for an interior vertex): more than one means the region is pinched
@@ -83,7 +157,7 @@ void make_disks(const MeshTopology& topo, std::vector<char>& in) {
 // One region per edge-connected piece of `in` (after make_disks, pieces share no vertex), with its boundary
 // polygon and rotation indices. Returns why not, or an empty string.
 std::string cut_regions(const DiskMesh& source, const std::vector<char>& in, const std::vector<Point2>& uv,
-                        const std::vector<double>& full_turn, std::vector<FoldRegion>& regions) {
+                        const FullTurns& full, std::vector<FoldRegion>& regions) {
   const MeshTopology& topo = source.topology;
   const int nf = static_cast<int>(source.faces.size()), nv = static_cast<int>(source.vertices.size());
   std::vector<int> local(nv, -1);
@@ -134,20 +208,14 @@ std::string cut_regions(const DiskMesh& source, const std::vector<char>& in, con
       const int v = region.vertices[sub_loop[k]];
       if (b.positions[k] == b.positions[(k + 1) % m])
         return "two consecutive vertices of a region's boundary have the same image";
-      // The angle the region must fill at v: v's full turn less the (positive) faces outside the region.
-      double inside = full_turn[v];
-      for (int h : topo.fan(v))
-        if (!in[MeshTopology::face_of(h)]) {
-          const Triangle& t = source.faces[MeshTopology::face_of(h)];
-          const int c = t[0] == v ? 0 : t[1] == v ? 1 : 2;
-          inside -= corner_angle(uv[v], uv[t[(c + 1) % 3]], uv[t[(c + 2) % 3]]);
-        }
-      const double alpha = polygon_angle(b.positions[(k + m - 1) % m], b.positions[k], b.positions[(k + 1) % m]);
-      const double turns = (inside - alpha) / kTwoPi;
-      const long r = std::lround(turns);
-      if (r < 0 || r > kMaxRotationIndex || std::abs(turns - static_cast<double>(r)) > 0.1)
-        return "a region's boundary vertex would need rotation index " + std::to_string(turns);
-      b.rotation_indices->push_back(r);
+      Point2 q, p;
+      const std::optional<int> r = region_rotation_index(topo, uv, full, in, v, q, p);
+      // The run's ends are the loop's neighbours: the region's boundary edges are its faces' outer edges.
+      if (!r || !(q == b.positions[(k + 1) % m] && p == b.positions[(k + m - 1) % m]))
+        return "a region's faces at a boundary vertex are not one run between its loop's edges";
+      if (*r < 0 || *r > kMaxRotationIndex)
+        return "a region's boundary vertex would need rotation index " + std::to_string(*r);
+      b.rotation_indices->push_back(*r);
     }
     region.mesh.vertices.reserve(rn);
     for (int v : region.vertices) region.mesh.vertices.push_back(source.vertices[v]);
@@ -177,26 +245,20 @@ FoldRegions fold_regions(const DiskMesh& source, const std::vector<int>& loop, c
   const int nf = static_cast<int>(source.faces.size()), nv = static_cast<int>(source.vertices.size());
   const int n = static_cast<int>(loop.size());
 
-  // The full turn each vertex must have: 2 pi inside, the polygon's angle plus 2 pi R_k on the boundary.
-  std::vector<double> full_turn(nv, kTwoPi);
-  for (int k = 0; k < n; ++k)
-    full_turn[loop[k]] = polygon_angle(polygon[(k + n - 1) % n], polygon[k], polygon[(k + 1) % n]) + kTwoPi * rotation[k];
+  std::vector<int> loop_index(nv, -1);
+  for (int k = 0; k < n; ++k) loop_index[loop[k]] = k;
+  const FullTurns full{loop_index, polygon, rotation};
 
-  // Seeds: the corners of non-positive faces, and vertices whose positive star does not make their full turn.
-  std::vector<char> positive(nf), near(nv, 0), all_positive(nv, 1);
-  std::vector<double> turn(nv, 0);
+  // Seeds: the corners of non-positive faces, and vertices whose positive star does not make its full turn.
+  std::vector<char> near(nv, 0), all_positive(nv, 1);
   for (int f = 0; f < nf; ++f) {
     const Triangle& t = source.faces[f];
-    positive[f] = orientation_sign(uv[t[0]], uv[t[1]], uv[t[2]]) > 0;
-    out.seed_faces += !positive[f];
-    for (int k = 0; k < 3; ++k) {
-      if (!positive[f]) near[t[k]] = 1, all_positive[t[k]] = 0;
-      else turn[t[k]] += corner_angle(uv[t[k]], uv[t[(k + 1) % 3]], uv[t[(k + 2) % 3]]);
-    }
+    if (detail::orient(uv[t[0]], uv[t[1]], uv[t[2]]) > 0) continue;
+    ++out.seed_faces;
+    for (int v : t) near[v] = 1, all_positive[v] = 0;
   }
-  // (A positive star's angle sum differs from the full turn by a multiple of 2 pi; 1 rad separates them.)
   for (int v = 0; v < nv; ++v)
-    if (all_positive[v] && std::abs(turn[v] - full_turn[v]) > 1) {
+    if (all_positive[v] && !makes_full_turn(topo, uv, full, v)) {
       near[v] = 1;
       ++out.seed_vertices;
     }
@@ -214,7 +276,7 @@ FoldRegions fold_regions(const DiskMesh& source, const std::vector<int>& loop, c
     out.failure = "the regions around the folds hold " + std::to_string(out.region_faces) + " of " +
                   std::to_string(nf) + " faces";
   } else {
-    out.failure = cut_regions(source, in, uv, full_turn, out.regions);
+    out.failure = cut_regions(source, in, uv, full, out.regions);
     if (!out.failure.empty()) out.regions.clear();
   }
   return out;

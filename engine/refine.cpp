@@ -27,6 +27,7 @@ namespace lipmap {
 namespace {
 
 using detail::Pt;
+using detail::pt;
 using Clock = std::chrono::steady_clock;
 
 double ms_since(Clock::time_point t0) {
@@ -615,8 +616,6 @@ private:
       }
     }
   }
-
-  static Pt pt(const Point2& p) { return Pt(p.x, p.y); }
 
   const DiskMesh& source_;
   const std::vector<Triangle>& faces_;

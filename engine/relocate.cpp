@@ -19,7 +19,7 @@ namespace {
 
 using detail::Pt;
 
-Pt pt(const Point2& p) { return Pt(p.x, p.y); }
+using detail::pt;
 
 // The kernel of a counterclockwise polygon (intersection of the left half-planes of its edges), clipped
 // from a large box in double, and its centroid. Only a guess for the search; the caller checks exactly.

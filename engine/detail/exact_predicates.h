@@ -21,6 +21,8 @@ namespace lipmap::detail {
 using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Pt = Kernel::Point_2;
 
+inline Pt pt(const Point2& p) { return Pt(p.x, p.y); }
+
 // +1: a, b, c turn left (counterclockwise); -1: right; 0: collinear.
 inline int orient(const Pt& a, const Pt& b, const Pt& c) {
   return static_cast<int>(CGAL::orientation(a, b, c));
