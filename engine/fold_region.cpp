@@ -69,8 +69,9 @@ bool makes_full_turn(const MeshTopology& topo, const std::vector<Point2>& uv, co
 // if that chain makes T full turns beyond sweep(start, end), the region's angle is sweep(q, p) + 2 pi (F - T),
 // F the turns of the full turn (1 inside; on the polygon R_k, plus one at a spike). Sets q and p; nothing
 // when v's region corners are not one run with corners outside (make_disks and the cut rule both out).
-std::optional<int> region_rotation_index(const MeshTopology& topo, const std::vector<Point2>& uv, const FullTurns& full,
-                          const std::vector<char>& in, int v, Point2& q, Point2& p) {
+std::optional<int> region_rotation_index(const MeshTopology& topo, const std::vector<Point2>& uv,
+                                         const FullTurns& full, const std::vector<char>& in, int v, Point2& q,
+                                         Point2& p) {
   const std::vector<Corner> corners = corners_ccw(topo, uv, v);
   const int n = static_cast<int>(corners.size());
   const int k = full.loop_index[v];
