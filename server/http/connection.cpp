@@ -149,10 +149,10 @@ thread_local DeadlineStream* tl_stream = nullptr;
 // Set by ConnectionQueue on the listener thread while it runs a connection beyond the cap.
 thread_local bool tl_refuse = false;
 
-// Closes connections after their peer has read the last answer (a 503 refusal, a 413 sent before the body):
+// Closes every connection after its peer has read the last answer (a 503 refusal, a 413 sent before the body):
 // closing a socket with unread input makes the kernel send a reset, which can destroy the answer before the
-// client reads it. Each socket is kept
-// (write side shut) until the peer closes or 2 s pass; at most 64 at once, beyond which they close at once.
+// client reads it. add() shuts the write side and keeps the socket, reading and dropping what still comes,
+// until the peer closes or 2 s pass; at most 64 at once, beyond which they close at once.
 class Closer {
 public:
   Closer() : thread_([this] { run(); }) {}
@@ -166,6 +166,7 @@ public:
     for (auto& [s, t] : sockets_) ::close(s);
   }
   void add(socket_t s) {
+    ::shutdown(s, SHUT_WR);
     {
       std::lock_guard<std::mutex> lock(mutex_);
       if (sockets_.size() < 64) {
@@ -274,10 +275,7 @@ private:
       --count;
     }
     tl_stream = nullptr;
-    // Lingering close, as for refusals: an answer sent before the body was read (413, 503) would otherwise be
-    // destroyed by the reset that closing with unread input sends, while the client is still sending.
-    ::shutdown(sock, SHUT_WR);
-    closer_.add(sock);
+    closer_.add(sock);  // a lingering close: see Closer
     return ret;
   }
 
@@ -289,7 +287,6 @@ private:
     }
     // A fresh socket's send buffer takes the whole small answer; never block the listener on it.
     (void)::send(sock, answer.data(), answer.size(), MSG_DONTWAIT | MSG_NOSIGNAL);
-    ::shutdown(sock, SHUT_WR);
     closer_.add(sock);
   }
 

@@ -27,7 +27,7 @@ if ! command -v clang++-14 >/dev/null; then
 fi
 mkdir -p "$build"
 # -O1 with line tables, as libFuzzer's documentation builds its targets: a cold -O3 build of the engine under
-# three sanitizers costs a CI run many minutes more on 2 cores and finds nothing more.
+# the sanitizers costs a CI run on 2 cores many minutes more.
 cmake -S . -B "$build" -DLIPMAP_FUZZ=ON -DCMAKE_CXX_COMPILER=clang++-14 -DCMAKE_BUILD_TYPE=Release \
   -DCMAKE_CXX_FLAGS_RELEASE="-O1 -g1 -DNDEBUG" -DCMAKE_CXX_COMPILER_LAUNCHER=ccache >"$build/fuzz-configure.log" 2>&1 \
   || { cat "$build/fuzz-configure.log" >&2; echo "fuzz: configure failed" >&2; exit 2; }
