@@ -5,7 +5,6 @@
 // factor's nonzeros and the residual of the solve. Single-threaded BLAS, as in the engine.
 //
 //   bench_ordering [--levels N (default 2)] [--mesh NAME (default max_registration_partial)] [--runs R (1)]
-#include <dlfcn.h>
 
 #include <algorithm>
 #include <chrono>
@@ -35,11 +34,6 @@ struct Ordering {
   int method;  // -1: CHOLMOD's default choice (nmethods = 0)
 };
 
-void one_thread_blas() {
-  using SetThreads = void (*)(int);
-  if (auto set = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) set(1);
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -50,7 +44,7 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--mesh") && i + 1 < argc) name = argv[++i];
     else if (!std::strcmp(argv[i], "--runs") && i + 1 < argc) runs = std::max(1, std::atoi(argv[++i]));
   }
-  one_thread_blas();
+  lipmap::use_single_threaded_solvers();
   std::vector<lipmap::Point3> vertices;
   std::vector<lipmap::Triangle> faces;
   for (const auto& entry : lipmap::testmeshes::disk_meshes())

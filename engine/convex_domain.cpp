@@ -67,7 +67,7 @@ Eigen::VectorXd scale_factors(const DiskMapInput& in, const std::vector<double>&
   for (int v = 0; v < n; ++v)
     if (row[static_cast<std::size_t>(v)] >= 0) b(row[static_cast<std::size_t>(v)]) = rhs(v);
   check_cancel(cancel);
-  use_single_threaded_blas();
+  use_single_threaded_solvers();
   Eigen::CholmodSupernodalLLT<SpMat, Eigen::Lower> llt;
   llt.cholmod().print = 0;
   llt.compute(A);

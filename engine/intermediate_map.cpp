@@ -5,7 +5,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <mutex>
 #include <cmath>
 #include <string>
 #include <utility>
@@ -320,16 +319,22 @@ Attempt solve_checked(const Solver& solver, const System& s, const Layout& lay, 
 
 }  // namespace
 
-// CHOLMOD's supernodal factorization calls BLAS. lipmap runs one job per core, so a multithreaded BLAS
-// only oversubscribes the cores: its threads spin and yield against the other workers (on 2 cores, the
-// disk maps of a 63k-triangle mesh took 3x longer wall time). OpenBLAS is told to use one thread, looked
-// up at run time so that any other BLAS implementation works unchanged.
-void use_single_threaded_blas() {
-  static std::once_flag once;
-  std::call_once(once, [] {
-    using SetThreads = void (*)(int);
-    if (auto set = reinterpret_cast<SetThreads>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) set(1);
-  });
+// lipmap runs one job per core, so threads inside a factorization only oversubscribe the cores: they spin
+// and yield against the other workers and against the job's own thread. Two libraries start such threads:
+// - CHOLMOD's supernodal factorization calls BLAS: OpenBLAS is told to use one thread (on 2 cores, the disk
+//   maps of a 63k-triangle mesh took 3x longer wall time with its threads);
+// - Debian's CHOLMOD opens OpenMP teams of a fixed 4 threads (CHOLMOD_OMP_NUM_THREADS, a num_threads clause
+//   that omp_set_num_threads cannot lower): max-active-levels 0 makes every OpenMP region run on the calling
+//   thread alone (alone on 2 cores, the disk maps of a 250k-triangle mesh took 550-870 ms with the team,
+//   320 ms without). It is set on every call: an OpenMP runtime may keep it per thread.
+// Both are looked up at run time, so that any other BLAS or OpenMP runtime works unchanged.
+void use_single_threaded_solvers() {
+  using SetInt = void (*)(int);
+  static const SetInt set_levels = [] {
+    if (auto set = reinterpret_cast<SetInt>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"))) set(1);
+    return reinterpret_cast<SetInt>(dlsym(RTLD_DEFAULT, "omp_set_max_active_levels"));
+  }();
+  if (set_levels) set_levels(0);
 }
 
 namespace {
@@ -341,7 +346,7 @@ using LU = Eigen::UmfPackLU<SpMat>;
 Attempt solve_spd(const System& s, const Layout& lay, const std::vector<Triangle>& faces, std::vector<Point2>& uv,
                   DiskMapSolution solution, const CancelToken* cancel, DiskMap& out, Timing& timing,
                   double* factor_ms) {
-  use_single_threaded_blas();
+  use_single_threaded_solvers();
   auto t0 = Clock::now();
   Cholesky llt;
   llt.cholmod().print = 0;  // a non-SPD matrix is handled below, not printed

@@ -104,9 +104,10 @@ DiskMap map_to_disk(const DiskMapInput& input, MapMethod method, const CancelTok
 
 // ---- Building blocks (reused by the variable-metric stage and method extremal) ----
 
-// Tells OpenBLAS (when it is the BLAS) to use one thread, once per process: call before a CHOLMOD
-// supernodal factorization (one engine job runs per core; BLAS threads would only oversubscribe them).
-void use_single_threaded_blas();
+// Keeps a CHOLMOD factorization on the calling thread: OpenBLAS (when it is the BLAS) on one thread, and no
+// OpenMP region run in parallel. Call before each CHOLMOD factorization (one engine job runs per core;
+// threads of their own would only oversubscribe the cores).
+void use_single_threaded_solvers();
 
 // cot of the angle at each corner: result[f][c] is the cotangent of the angle of face f at corner
 // faces[f][c], i.e. dot(e1, e2) / |e1 x e2| with e1, e2 the two edges leaving that corner. Unsigned

@@ -214,7 +214,7 @@ TeichmullerMap teichmuller_map(const DiskMapInput& input, const MeshTopology& to
     out.ms = ms_since(t0);
     return out;
   }
-  use_single_threaded_blas();
+  use_single_threaded_solvers();
   BeltramiSolver solver(input, frames, lay);
   std::vector<Point2> uv = out.map.uv;
   double area = 0;

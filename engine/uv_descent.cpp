@@ -13,6 +13,7 @@
 
 #include "engine/detail/exact_predicates.h"
 #include "engine/error.h"
+#include "engine/intermediate_map.h"
 
 namespace lipmap::detail {
 namespace {
@@ -192,6 +193,7 @@ struct UvDescent::Impl {
     laplacian.resize(n, n);
     laplacian.setFromTriplets(entries.begin(), entries.end());
     laplacian_factor.cholmod().print = 0;
+    use_single_threaded_solvers();
     laplacian_factor.compute(laplacian);
     factored = laplacian_factor.info() == Eigen::Success;
   }
