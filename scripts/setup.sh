@@ -9,7 +9,7 @@ build_packages=(
   libcgal-dev libgmp-dev libmpfr-dev libboost-dev
   libeigen3-dev libopenmesh-dev libsuitesparse-dev libopenblas0-pthread
   nlohmann-json3-dev libcpp-httplib-dev libtinygltf-dev
-  libtbb-dev libspdlog-dev libcli11-dev libhiredis-dev
+  libtbb-dev libspdlog-dev libcli11-dev libhiredis-dev libsimdjson-dev
 )
 # redis-server and nginx: the cluster suite (tests/cluster) runs them unprivileged on loopback.
 test_packages=(googletest libgtest-dev libgmock-dev bats curl jq redis-server nginx)

@@ -1,13 +1,15 @@
-// The JSON codec's direct ways for big jobs (json_codec.h): a parametrize body read by SAX straight into the
-// engine's arrays, and the answer written from them, byte for byte what the DOM ways give.
+// The JSON codec's direct ways for big jobs (json_codec.h): a parametrize body read by simdjson straight into
+// the engine's arrays, and the answer written from them, byte for byte what the DOM ways give.
 #include <charconv>
-#include <climits>
+#include <cstdint>
 #include <cmath>
 #include <cstring>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include <simdjson.h>
 
 #include "engine/pipeline.h"
 #include "server/codec/json_codec.h"
@@ -25,163 +27,166 @@ using detail::dump_pretty;
 using detail::result_json;
 
 // ---- a parametrize body without a DOM for its big arrays ---------------------------------------------
-// nlohmann's SAX events go straight into the engine's arrays for /mesh/vertices, /mesh/faces and
-// /boundary/positions; the small members (boundary vertices and rotation indices, options) are built into a
-// small DOM by DomBuilder and read by parametrize_request_from_json like any body. Only a plain, well-formed
-// body is read this way: at the first thing the typed readers would have to judge (a wrong type or length, a
-// float index, an unknown or repeated key, a syntax error) the reader gives up and the caller parses the
-// whole text the ordinary way, which then names the error exactly as before. So an answer never depends on
-// which way a body was read.
+// simdjson's On Demand parser reads /mesh/vertices, /mesh/faces and /boundary/positions straight into the
+// engine's arrays (its number parsing is what nlohmann's lexer spends most of a big body on); the small
+// members (boundary vertices and rotation indices, options) are cut out as text and built into a small DOM by
+// DomBuilder, as parse_json builds any body, then read by parametrize_request_from_json like any body. Only a
+// plain, well-formed body is read this way: at the first thing the typed readers would have to judge (a
+// wrong type or length, a float index, an unknown or repeated key, a syntax error) the reader gives up and
+// the caller parses the whole text the ordinary way, which then names the error exactly as before. So an
+// answer never depends on which way a body was read.
+namespace od = simdjson::ondemand;
+
 class RequestReader {
 public:
   explicit RequestReader(ParametrizeRequest& out) : out_(out) {}
 
-  bool null() { return capture_ ? forward([&] { return capture_->null(); }) : false; }
-  bool boolean(bool b) { return capture_ ? forward([&] { return capture_->boolean(b); }) : false; }
-  bool number_integer(json::number_integer_t v) {
-    if (capture_) return forward([&] { return capture_->number_integer(v); });
-    return number(static_cast<double>(v), static_cast<long long>(v));
-  }
-  bool number_unsigned(json::number_unsigned_t v) {
-    if (capture_) return forward([&] { return capture_->number_unsigned(v); });
-    if (v > static_cast<json::number_unsigned_t>(LLONG_MAX)) return false;
-    return number(static_cast<double>(v), static_cast<long long>(v));
-  }
-  bool number_float(json::number_float_t v, const json::string_t& token) {
-    if (capture_) return forward([&] { return capture_->number_float(v, token); });
-    if (!std::isfinite(v) || state_ == State::face) return false;  // an index written as a float: the DOM judges
-    return number(v, 0);
-  }
-  bool string(json::string_t& s) { return capture_ ? forward([&] { return capture_->string(s); }) : false; }
-  bool binary(json::binary_t&) { return false; }
-
-  bool start_object(std::size_t n) {
-    if (capture_) return forward([&] { return capture_->start_object(n); });
-    switch (state_) {
-      case State::start: state_ = State::root; return true;
-      case State::mesh_value: state_ = State::mesh; return true;
-      case State::boundary_value: state_ = State::boundary; return true;
-      default: return false;
+  // False: not a plain body (the DOM path judges it). The whole text is read: nothing may follow the object.
+  bool read(std::string_view text) {
+    const simdjson::padded_string padded(text.data(), text.size());
+    od::parser parser;
+    od::document doc;
+    od::object root;
+    if (parser.iterate(padded).get(doc) || doc.get_object().get(root)) return false;
+    for (auto member : root) {
+      std::string_view key;
+      od::value value;
+      if (member.unescaped_key().get(key) || member.value().get(value)) return false;
+      bool ok = false;
+      if (key == "mesh") ok = first(kMesh) && mesh(value);
+      else if (key == "boundary") ok = first(kBoundary) && boundary(value);
+      else if (key == "options") ok = first(kOptions) && small_member(value, od::json_type::object, rest_["options"], 1);
+      if (!ok) return false;
     }
+    // At the end of the text, current_location has no place to give.
+    const char* at = nullptr;
+    return doc.current_location().get(at) != simdjson::SUCCESS;
   }
-  bool key(json::string_t& k) {
-    if (capture_) return forward([&] { return capture_->key(k); });
-    // Members this reader fills (bit) in the object being read; a repeated one is for the DOM to report.
-    auto take = [&](unsigned bit, State next) {
-      if (seen_ & bit) return false;
-      seen_ |= bit;
-      state_ = next;
-      return true;
-    };
-    auto capture = [&](unsigned bit, json& into, std::size_t depth) {
-      if (seen_ & bit) return false;
-      seen_ |= bit;
-      capture_.emplace(into, depth);
-      return true;
-    };
-    if (state_ == State::root) {
-      if (k == "mesh") return take(kMesh, State::mesh_value);
-      if (k == "boundary") return take(kBoundary, State::boundary_value);
-      if (k == "options") return capture(kOptions, rest_["options"], 1);
-    } else if (state_ == State::mesh) {
-      if (k == "vertices") return take(kVertices, State::vertices_value);
-      if (k == "faces") return take(kFaces, State::faces_value);
-    } else if (state_ == State::boundary) {
-      if (k == "positions") return take(kPositions, State::positions_value);
-      if (k == "vertices") return capture(kBoundaryVertices, rest_["boundary"]["vertices"], 2);
-      if (k == "rotation_indices") return capture(kRotation, rest_["boundary"]["rotation_indices"], 2);
-    }
-    return false;
-  }
-  bool end_object() {
-    if (capture_) return forward([&] { return capture_->end_object(); });
-    if (state_ == State::mesh || state_ == State::boundary) {
-      state_ = State::root;
-      return true;
-    }
-    if (state_ == State::root) {
-      state_ = State::end;
-      return true;
-    }
-    return false;
-  }
-  bool start_array(std::size_t n) {
-    if (capture_) return forward([&] { return capture_->start_array(n); });
-    switch (state_) {
-      case State::vertices_value: state_ = State::vertices; return true;
-      case State::faces_value: state_ = State::faces; return true;
-      case State::positions_value: state_ = State::positions; return true;
-      case State::vertices: state_ = State::vertex; count_ = 0; return true;
-      case State::positions: state_ = State::position; count_ = 0; return true;
-      case State::faces:
-        state_ = State::face;
-        out_.mesh.faces.emplace_back().reserve(3);  // one allocation for a triangle, not three
-        return true;
-      default: return false;
-    }
-  }
-  bool end_array() {
-    if (capture_) return forward([&] { return capture_->end_array(); });
-    switch (state_) {
-      case State::vertex:
-        if (count_ != 3) return false;
-        out_.mesh.vertices.push_back({value_[0], value_[1], value_[2]});
-        state_ = State::vertices;
-        return true;
-      case State::position:
-        if (count_ != 2) return false;
-        out_.boundary.positions.push_back({value_[0], value_[1]});
-        state_ = State::positions;
-        return true;
-      case State::face: state_ = State::faces; return true;
-      case State::vertices:
-      case State::faces: state_ = State::mesh; return true;
-      case State::positions: state_ = State::boundary; return true;
-      default: return false;
-    }
-  }
-  bool parse_error(std::size_t, const std::string&, const nlohmann::detail::exception&) { return false; }
 
   // The members read here, as the DOM the typed readers expect: the big arrays empty (filled already).
   json& rest() { return rest_; }
   unsigned seen() const { return seen_; }
-  bool finished() const { return state_ == State::end; }
 
   static constexpr unsigned kMesh = 1, kBoundary = 2, kOptions = 4, kVertices = 8, kFaces = 16, kPositions = 32,
                             kBoundaryVertices = 64, kRotation = 128;
 
 private:
-  enum class State {
-    start, root, end, mesh_value, mesh, boundary_value, boundary, vertices_value, vertices, vertex, faces_value,
-    faces, face, positions_value, positions, position
-  };
-
-  bool number(double d, long long i) {
-    switch (state_) {
-      case State::vertex:
-      case State::position:
-        if (count_ >= 3) return false;
-        value_[count_++] = d;
-        return true;
-      case State::face: out_.mesh.faces.back().push_back(i); return true;
-      default: return false;
-    }
-  }
-  // A captured member: its events go to the DOM builder until its value is complete.
-  template <class Event>
-  bool forward(Event event) {
-    if (!event() || capture_->error()) return false;
-    if (capture_->done()) capture_.reset();
+  // Each member this reader fills may come once; a repeated one is for the DOM to report.
+  bool first(unsigned bit) {
+    if (seen_ & bit) return false;
+    seen_ |= bit;
     return true;
   }
 
+  bool mesh(od::value value) {
+    od::object mesh;
+    if (value.get_object().get(mesh)) return false;
+    for (auto member : mesh) {
+      std::string_view key;
+      od::value v;
+      if (member.unescaped_key().get(key) || member.value().get(v)) return false;
+      bool ok = false;
+      if (key == "vertices") ok = first(kVertices) && rows<3>(v, [&](const double* c) {
+        out_.mesh.vertices.push_back({c[0], c[1], c[2]});
+      });
+      else if (key == "faces") ok = first(kFaces) && faces(v);
+      if (!ok) return false;
+    }
+    return true;
+  }
+
+  bool boundary(od::value value) {
+    od::object boundary;
+    if (value.get_object().get(boundary)) return false;
+    json& rest = rest_["boundary"];
+    for (auto member : boundary) {
+      std::string_view key;
+      od::value v;
+      if (member.unescaped_key().get(key) || member.value().get(v)) return false;
+      bool ok = false;
+      if (key == "positions")
+        ok = first(kPositions) && rows<2>(v, [&](const double* c) { out_.boundary.positions.push_back({c[0], c[1]}); });
+      else if (key == "vertices")
+        ok = first(kBoundaryVertices) && small_member(v, od::json_type::array, rest["vertices"], 2);
+      else if (key == "rotation_indices")
+        ok = first(kRotation) && small_member(v, od::json_type::array, rest["rotation_indices"], 2);
+      if (!ok) return false;
+    }
+    return true;
+  }
+
+  // An array of rows of N coordinates, each row handed to put.
+  template <int N, class Put>
+  bool rows(od::value value, Put put) {
+    od::array rows;
+    if (value.get_array().get(rows)) return false;
+    for (auto element : rows) {
+      od::array row;
+      if (element.get_array().get(row)) return false;
+      double c[N];
+      int k = 0;
+      for (auto x : row) {
+        od::value v;
+        if (k == N || x.get(v) || !coordinate(v, c[k++])) return false;
+      }
+      if (k != N) return false;
+      put(c);
+    }
+    return true;
+  }
+
+  // A coordinate as nlohmann reads it: an integer through its integer value (so -0 is +0.0, as nlohmann's
+  // number_integer gives), any other number as the nearest double; not finite, or an integer of 2^63 or more
+  // (nlohmann's number_unsigned), is left to the DOM path.
+  static bool coordinate(od::value v, double& out) {
+    od::number n;
+    if (v.get_number().get(n)) return false;
+    switch (n.get_number_type()) {
+      case od::number_type::signed_integer: out = static_cast<double>(n.get_int64()); return true;
+      case od::number_type::floating_point_number: out = n.get_double(); return std::isfinite(out);
+      default: return false;
+    }
+  }
+
+  // Faces as written, any length (validate judges them); an index must be an integer that fits a long long.
+  bool faces(od::value value) {
+    od::array rows;
+    if (value.get_array().get(rows)) return false;
+    for (auto element : rows) {
+      od::array row;
+      if (element.get_array().get(row)) return false;
+      std::vector<long long>& face = out_.mesh.faces.emplace_back();
+      face.reserve(3);  // one allocation for a triangle, not three
+      for (auto x : row) {
+        std::int64_t i;
+        if (x.get_int64().get(i)) return false;
+        face.push_back(i);
+      }
+    }
+    return true;
+  }
+
+  // A small member of the expected type, cut out as text and built into `into` by DomBuilder (its nesting
+  // counted from `depth` containers out, its duplicate keys and overflowing numbers refused as in parse_json).
+  static bool small_member(od::value value, od::json_type type, json& into, std::size_t depth) {
+    od::json_type t;
+    if (value.type().get(t) || t != type) return false;
+    std::string_view text;
+    if (type == od::json_type::object) {
+      od::object o;
+      if (value.get_object().get(o) || o.raw_json().get(text)) return false;
+    } else {
+      od::array a;
+      if (value.get_array().get(a) || a.raw_json().get(text)) return false;
+    }
+    DomBuilder builder(into, depth);
+    return json::sax_parse(text.begin(), text.end(), &builder, json::input_format_t::json, /*strict=*/true) &&
+           !builder.error() && builder.done();
+  }
+
   ParametrizeRequest& out_;
-  State state_ = State::start;
   unsigned seen_ = 0;  // the reader's members seen so far (one object of each kind per body)
-  int count_ = 0;
-  double value_[3] = {0, 0, 0};
   json rest_ = json::object();
-  std::optional<DomBuilder> capture_;
 };
 
 // ---- the answer's text without a DOM for its big arrays ------------------------------------------------
@@ -326,9 +331,7 @@ void write_answer(const ordered_json& v, int depth, bool pretty, const BigArrays
 std::optional<ParametrizeRequest> parametrize_request_from_text(std::string_view text) {
   ParametrizeRequest big;
   RequestReader reader(big);
-  if (!json::sax_parse(text.begin(), text.end(), &reader, json::input_format_t::json, /*strict=*/true) ||
-      !reader.finished())
-    return std::nullopt;
+  if (!reader.read(text)) return std::nullopt;
   // The small members through the typed readers, with empty big arrays where the body had them, so that
   // a missing member is reported as before.
   json& rest = reader.rest();
