@@ -1,7 +1,8 @@
 #!/usr/bin/env bats
 # `lipmap serve` against requests framed to cost it time or to be read two ways: work it cannot take now is
 # refused before its body is read; Content-Length and Transfer-Encoding it would misread are refused at once;
-# Range is ignored. Raw requests go through bash's /dev/tcp, every one bounded with `timeout`.
+# Range is ignored; answers go out uncompressed whatever the client accepts. Raw requests go through bash's
+# /dev/tcp, every one bounded with `timeout`.
 
 bats_require_minimum_version 1.5.0
 load helpers/server
@@ -180,4 +181,19 @@ POLYGON='{"polygon": [[0,0],[1,0],[1,1]]}'
   raw "$port" $'GET /v1/openapi.json HTTP/1.1\r\nHost: x\r\nRange: bytes=0-1,3-4\r\nConnection: close\r\n\r\n'
   [ "$raw_status" = 200 ]
   [[ "$raw_ctype" == application/json* ]]
+}
+
+@test "answers go out uncompressed whatever the client accepts (gzip, br): compression is the proxy's" {
+  request="$(make_body grid12 grid 12 spiral)"
+  for enc in 'gzip' 'br' 'gzip, deflate, br' 'BR;q=1.0, *'; do
+    call POST "$MAIN_URL/v1/parametrize" -H 'Content-Type: application/json' -H "accept-encoding: $enc" \
+      --data-binary "@$request"
+    expect 200
+    [ -z "$(header Content-Encoding)" ] || { echo "Accept-Encoding $enc: Content-Encoding $(header Content-Encoding)" >&2; return 1; }
+    check_map "$request"
+  done
+  call GET "$MAIN_URL/v1/openapi.json" -H 'Accept-Encoding: gzip, br'
+  expect 200
+  [ -z "$(header Content-Encoding)" ]
+  jq -e .openapi "$answer" >/dev/null
 }
