@@ -111,7 +111,9 @@ struct UvDescent::Impl {
   std::vector<double> weight;    // rest area
   std::vector<int> active;       // faces with a free corner
   double total_weight = 0;
-  Eigen::CholmodSimplicialLLT<SpMat, Eigen::Lower> laplacian_factor;
+  // Supernodal, as the intermediate maps': at 1M triangles the simplicial factorization made the optimize
+  // stage 17.4 s instead of 7.6 s.
+  Eigen::CholmodSupernodalLLT<SpMat, Eigen::Lower> laplacian_factor;
   SpMat laplacian;
   bool factored = false;
 
