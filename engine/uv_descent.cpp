@@ -111,9 +111,10 @@ struct UvDescent::Impl {
   std::vector<double> weight;    // rest area
   std::vector<int> active;       // faces with a free corner
   double total_weight = 0;
-  // Supernodal, as the intermediate maps': at 1M triangles the simplicial factorization made the optimize
-  // stage 17.4 s instead of 7.6 s.
-  Eigen::CholmodSupernodalLLT<SpMat, Eigen::Lower> laplacian_factor;
+  // CHOLMOD chooses supernodal or simplicial by the factor's density (CHOLMOD_AUTO, Eigen's default for
+  // CholmodDecomposition): at 1M triangles a simplicial factor made the optimize stage 17.4 s instead of 7.6 s,
+  // while the untangler's many small local systems factor faster simplicially.
+  Eigen::CholmodDecomposition<SpMat, Eigen::Lower> laplacian_factor;
   SpMat laplacian;
   bool factored = false;
 
