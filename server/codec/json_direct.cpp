@@ -48,16 +48,13 @@ public:
     od::document doc;
     od::object root;
     if (parser.iterate(padded).get(doc) || doc.get_object().get(root)) return false;
-    for (auto member : root) {
-      std::string_view key;
-      od::value value;
-      if (member.unescaped_key().get(key) || member.value().get(value)) return false;
-      bool ok = false;
-      if (key == "mesh") ok = first(kMesh) && mesh(value);
-      else if (key == "boundary") ok = first(kBoundary) && boundary(value);
-      else if (key == "options") ok = first(kOptions) && small_member(value, od::json_type::object, rest_["options"], 1);
-      if (!ok) return false;
-    }
+    const bool ok = members(root, [&](std::string_view key, od::value value) {
+      if (key == "mesh") return first(kMesh) && mesh(value);
+      if (key == "boundary") return first(kBoundary) && boundary(value);
+      if (key == "options") return first(kOptions) && small_member(value, od::json_type::object, rest_["options"], 1);
+      return false;
+    });
+    if (!ok) return false;
     // At the end of the text, current_location has no place to give.
     const char* at = nullptr;
     return doc.current_location().get(at) != simdjson::SUCCESS;
@@ -78,51 +75,58 @@ private:
     return true;
   }
 
+  // Each member of an object handed to take(key, value); false at the first it refuses.
+  template <class Take>
+  static bool members(od::object& object, Take take) {
+    for (auto member : object) {
+      std::string_view key;
+      od::value value;
+      if (member.unescaped_key().get(key) || member.value().get(value) || !take(key, value)) return false;
+    }
+    return true;
+  }
+
+  // Each element of an array of arrays handed to take(row); false at the first it refuses.
+  template <class Take>
+  static bool rows_of(od::value value, Take take) {
+    od::array rows;
+    if (value.get_array().get(rows)) return false;
+    for (auto element : rows) {
+      od::array row;
+      if (element.get_array().get(row) || !take(row)) return false;
+    }
+    return true;
+  }
+
   bool mesh(od::value value) {
     od::object mesh;
     if (value.get_object().get(mesh)) return false;
-    for (auto member : mesh) {
-      std::string_view key;
-      od::value v;
-      if (member.unescaped_key().get(key) || member.value().get(v)) return false;
-      bool ok = false;
-      if (key == "vertices") ok = first(kVertices) && rows<3>(v, [&](const double* c) {
-        out_.mesh.vertices.push_back({c[0], c[1], c[2]});
-      });
-      else if (key == "faces") ok = first(kFaces) && faces(v);
-      if (!ok) return false;
-    }
-    return true;
+    return members(mesh, [&](std::string_view key, od::value v) {
+      if (key == "vertices")
+        return first(kVertices) && points<3>(v, [&](const double* c) { out_.mesh.vertices.push_back({c[0], c[1], c[2]}); });
+      if (key == "faces") return first(kFaces) && faces(v);
+      return false;
+    });
   }
 
   bool boundary(od::value value) {
     od::object boundary;
     if (value.get_object().get(boundary)) return false;
     json& rest = rest_["boundary"];
-    for (auto member : boundary) {
-      std::string_view key;
-      od::value v;
-      if (member.unescaped_key().get(key) || member.value().get(v)) return false;
-      bool ok = false;
+    return members(boundary, [&](std::string_view key, od::value v) {
       if (key == "positions")
-        ok = first(kPositions) && rows<2>(v, [&](const double* c) { out_.boundary.positions.push_back({c[0], c[1]}); });
-      else if (key == "vertices")
-        ok = first(kBoundaryVertices) && small_member(v, od::json_type::array, rest["vertices"], 2);
-      else if (key == "rotation_indices")
-        ok = first(kRotation) && small_member(v, od::json_type::array, rest["rotation_indices"], 2);
-      if (!ok) return false;
-    }
-    return true;
+        return first(kPositions) && points<2>(v, [&](const double* c) { out_.boundary.positions.push_back({c[0], c[1]}); });
+      if (key == "vertices") return first(kBoundaryVertices) && small_member(v, od::json_type::array, rest["vertices"], 2);
+      if (key == "rotation_indices")
+        return first(kRotation) && small_member(v, od::json_type::array, rest["rotation_indices"], 2);
+      return false;
+    });
   }
 
   // An array of rows of N coordinates, each row handed to put.
   template <int N, class Put>
-  bool rows(od::value value, Put put) {
-    od::array rows;
-    if (value.get_array().get(rows)) return false;
-    for (auto element : rows) {
-      od::array row;
-      if (element.get_array().get(row)) return false;
+  static bool points(od::value value, Put put) {
+    return rows_of(value, [&](od::array& row) {
       double c[N];
       int k = 0;
       for (auto x : row) {
@@ -131,8 +135,8 @@ private:
       }
       if (k != N) return false;
       put(c);
-    }
-    return true;
+      return true;
+    });
   }
 
   // A coordinate as nlohmann reads it: an integer through its integer value (so -0 is +0.0, as nlohmann's
@@ -150,11 +154,7 @@ private:
 
   // Faces as written, any length (validate judges them); an index must be an integer that fits a long long.
   bool faces(od::value value) {
-    od::array rows;
-    if (value.get_array().get(rows)) return false;
-    for (auto element : rows) {
-      od::array row;
-      if (element.get_array().get(row)) return false;
+    return rows_of(value, [&](od::array& row) {
       std::vector<long long>& face = out_.mesh.faces.emplace_back();
       face.reserve(3);  // one allocation for a triangle, not three
       for (auto x : row) {
@@ -162,8 +162,8 @@ private:
         if (x.get_int64().get(i)) return false;
         face.push_back(i);
       }
-    }
-    return true;
+      return true;
+    });
   }
 
   // A small member of the expected type, cut out as text and built into `into` by DomBuilder (its nesting
