@@ -91,7 +91,11 @@ ParametrizeRequest parametrize_request_from_json(const nlohmann::json& body);
 // text is anything else (not JSON, a glTF envelope, a member of the wrong shape, an unknown or repeated
 // key): then parse the text the ordinary way, which names the error. May throw JsonError like
 // parametrize_request_from_json (e.g. an invalid option).
-std::optional<ParametrizeRequest> parametrize_request_from_text(std::string_view text);
+// `padding`: how many bytes after the text may be read, all of them initialized (a std::string with room
+// to spare, e.g.); from kJsonReadPadding on, the text is read where it is instead of copied into a padded
+// buffer first (simdjson reads in 64-byte blocks).
+std::optional<ParametrizeRequest> parametrize_request_from_text(std::string_view text, std::size_t padding = 0);
+inline constexpr std::size_t kJsonReadPadding = 64;
 nlohmann::ordered_json parametrize_request_to_json(const ParametrizeRequest& request);
 
 // The "boundary" member alone, as a document of its own (`lipmap map --boundary FILE`):
@@ -127,8 +131,11 @@ std::optional<std::vector<Point2>> metric_from_json(const nlohmann::json& metric
 // distortion (a degenerate uv triangle, possible only with refine off) is written as null.
 nlohmann::ordered_json parametrize_result_to_json(const lipmap::ParametrizeResult& result);
 // Byte for byte dump(parametrize_result_to_json(result), pretty), written without a DOM for the big
-// arrays (mesh, uv, inserted): the numbers go from the engine's arrays straight into the text.
-std::string parametrize_result_to_text(const lipmap::ParametrizeResult& result, bool pretty = false);
+// arrays (mesh, uv, inserted): the numbers go from the engine's arrays straight into the text. `threads` > 1
+// formats the rows of an answer with at least kParallelAnswerRows vertices + faces + uv on that many threads
+// (the caller's included): for a job alone on the machine.
+std::string parametrize_result_to_text(const lipmap::ParametrizeResult& result, bool pretty = false, int threads = 1);
+inline constexpr std::size_t kParallelAnswerRows = 50'000;
 
 // ---- classify answer --------------------------------------------------------------------------------
 // {"verdict", "turning_number", "triangulation": [[i,j,k]...], "rotation_indices", "singular_vertices",

@@ -73,7 +73,7 @@ LoadedRequest parametrize_json(const RequestInput& input) {
   if (input.file.empty()) {
     // A plain body is read straight into the engine's arrays; anything else (an envelope, an error) the
     // ordinary way.
-    if (auto request = parametrize_request_from_text(input.body)) {
+    if (auto request = parametrize_request_from_text(input.body, input.body_padding)) {
       out.request = std::move(*request);
       return out;
     }

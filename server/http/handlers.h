@@ -58,11 +58,15 @@ struct ParsedParametrize {
 // The parsed request, or the answer refusing it.
 std::variant<ParsedParametrize, Answer> parse_parametrize(Service& service, const httplib::Request& req);
 
-// The engine's parametrize on a worker, with its stage timings recorded in the metrics.
+// A job's outcome: the engine's result and its JSON answer.
 struct MapOutcome {
   std::shared_ptr<const std::string> json;
   std::shared_ptr<const ParametrizeResult> result;
 };
+// The engine on a request, with its stage timings and inserted vertices counted in the metrics.
+std::shared_ptr<const ParametrizeResult> map_request(const codec::ParametrizeRequest& request, const CancelToken& token,
+                                                   const ProgressFn& progress, Metrics& metrics);
+// map_request and the answer's JSON text, shared: a job's result is kept, and may be fetched many times.
 MapOutcome run_map(const codec::ParametrizeRequest& request, const CancelToken& token, const ProgressFn& progress,
                    Metrics& metrics);
 

@@ -161,7 +161,7 @@ Answer rendering(Service& service, const std::string& id, const std::string& kin
       c = *computed;
     } else {
       codec::LoadedRequest loaded = codec::load_request(stored->input());
-      c.result = run_map(loaded.request, token, {}, metrics).result;
+      c.result = map_request(loaded.request, token, {}, metrics);
       if (loaded.asset) c.asset = std::make_shared<const gltf::Asset>(std::move(*loaded.asset));
     }
     Answer out;

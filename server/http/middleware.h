@@ -26,6 +26,8 @@ struct RequestContext {
   // Where the time went (for the log line; negative: not applicable): parsing the body on this thread,
   // waiting for a worker, the worker's work (engine and answer serialization).
   double parse_ms = -1, queue_ms = -1, work_ms = -1;
+  // What the answer kept alive (Answer::keep_until_sent), freed once the answer is out (log_request).
+  std::shared_ptr<const void> kept;
 };
 
 // The context of the request this thread is answering.

@@ -43,6 +43,18 @@ std::optional<Answer> check_mesh_limits(const ServerConfig& config, const codec:
   return std::nullopt;
 }
 
+// Zeros written just past the body's end, in room the string already has (pre_routing reserved it): the
+// JSON reader then reads the body where it is rather than a padded copy of it (simdjson's own iterate of a
+// std::string reads into its capacity the same way). Returns how many.
+std::size_t pad_body(const httplib::Request& req) {
+  auto& body = const_cast<std::string&>(req.body);
+  if (body.capacity() - body.size() < codec::kJsonReadPadding) return 0;
+  const std::size_t size = body.size();
+  body.append(codec::kJsonReadPadding, '\0');
+  body.resize(size);
+  return codec::kJsonReadPadding;
+}
+
 }  // namespace
 
 Answer over_budget(const ServerConfig& config, std::size_t estimate, std::size_t body_bytes, const std::string& what) {
@@ -76,6 +88,7 @@ std::variant<ParsedParametrize, Answer> parse_parametrize(Service& service, cons
   // glTF envelope, a glTF model (query parameters mesh, primitive, weld, boundary=texcoord:N) or multipart.
   codec::RequestInput input;
   input.body = req.body;
+  input.body_padding = pad_body(req);
   input.media_type = req.get_header_value("Content-Type");
   if (!codec::request_form(input)) {
     Answer a = *require_json(req);
@@ -112,8 +125,8 @@ std::variant<ParsedParametrize, Answer> parse_parametrize(Service& service, cons
   return ParsedParametrize{std::move(request), std::move(asset)};
 }
 
-MapOutcome run_map(const codec::ParametrizeRequest& request, const CancelToken& token, const ProgressFn& progress,
-                   Metrics& metrics) {
+std::shared_ptr<const ParametrizeResult> map_request(const codec::ParametrizeRequest& request, const CancelToken& token,
+                                                   const ProgressFn& progress, Metrics& metrics) {
   auto result = std::make_shared<ParametrizeResult>(
       parametrize(request.mesh, request.boundary, request.options, &token, progress));
   const StageTimings& t = result->timings;
@@ -125,6 +138,12 @@ MapOutcome run_map(const codec::ParametrizeRequest& request, const CancelToken& 
                                              {Stage::verify, t.verify},       {Stage::quality, t.quality}};
   for (const auto& [stage, ms] : stages) metrics.observe_stage(lipmap::to_string(stage), ms / 1000.0);
   metrics.observe_inserted_vertices(static_cast<long long>(result->map.inserted.size()));
+  return result;
+}
+
+MapOutcome run_map(const codec::ParametrizeRequest& request, const CancelToken& token, const ProgressFn& progress,
+                   Metrics& metrics) {
+  std::shared_ptr<const ParametrizeResult> result = map_request(request, token, progress, metrics);
   auto text = std::make_shared<const std::string>(codec::parametrize_result_to_text(*result));
   return {std::move(text), std::move(result)};
 }
@@ -132,8 +151,7 @@ MapOutcome run_map(const codec::ParametrizeRequest& request, const CancelToken& 
 Answer gltf_answer(const std::shared_ptr<const gltf::Asset>& asset, const ParametrizeResult& result, gltf::Format f) {
   Answer a;
   a.content_type = gltf::media_type(f);
-  a.shared_body = std::make_shared<const std::string>(asset ? gltf::write_answer(*asset, result, f)
-                                                            : gltf::write_answer(result, f));
+  a.body = asset ? gltf::write_answer(*asset, result, f) : gltf::write_answer(result, f);
   return a;
 }
 
@@ -146,12 +164,15 @@ Answer post_parametrize(Service& service, const httplib::Request& req) {
   const TestHooks hooks = service.hooks_of(req);
   const std::optional<gltf::Format> answer_format = gltf::accepted_format(req.get_header_value("Accept"));
   Metrics& metrics = service.metrics;
-  return service.run_sync(InputKind::parametrize, [p, hooks, answer_format, &metrics](const CancelToken& token) {
+  const Service& svc = service;
+  return service.run_sync(InputKind::parametrize, [p, hooks, answer_format, &metrics, &svc](const CancelToken& token) {
     apply_hooks(hooks, token);
-    MapOutcome m = run_map(*p.request, token, {}, metrics);
-    if (answer_format && m.result) return gltf_answer(p.asset, *m.result, *answer_format);
+    // The answer's text is this request's alone: it is moved, not copied, into the response (middleware.cpp).
+    const std::shared_ptr<const ParametrizeResult> result = map_request(*p.request, token, {}, metrics);
+    if (answer_format) return gltf_answer(p.asset, *result, *answer_format);
     Answer a;
-    a.shared_body = std::move(m.json);
+    a.body = codec::parametrize_result_to_text(*result, false, svc.answer_threads());
+    a.keep_until_sent = p.request;
     return a;
   });
 }

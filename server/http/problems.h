@@ -28,6 +28,9 @@ struct Answer {
   std::string content_type = "application/json";
   std::string body;
   std::shared_ptr<const std::string> shared_body;  // large bodies (results) are shared until written
+  // Freed after the answer is written, not before: a big request's arrays (250k faces are 250k frees) would
+  // otherwise be freed on the request's thread between the engine's end and the answer's first byte.
+  std::shared_ptr<const void> keep_until_sent;
   std::optional<nlohmann::ordered_json> problem;
   std::vector<std::pair<std::string, std::string>> headers;
   double queue_ms = -1, work_ms = -1;  // set by Service::run_sync

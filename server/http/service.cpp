@@ -122,6 +122,11 @@ Clock::time_point Service::deadline_from_arrival() const {
   return start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config.deadline_seconds));
 }
 
+int Service::answer_threads() const {
+  static const unsigned cores = std::thread::hardware_concurrency();
+  return cores >= 2 && pool.busy() <= 1 && pool.queue_depth() == 0 ? 2 : 1;
+}
+
 TestHooks Service::hooks_of(const httplib::Request& req) const {
   TestHooks h;
   if (!config.test_hooks) return h;

@@ -67,6 +67,10 @@ public:
   Answer queue_full(const std::string& what);
   // The request's deadline, counted from its arrival.
   Clock::time_point deadline_from_arrival() const;
+  // Threads for writing an answer's text on a worker: 2 when that job is the pool's only work and the
+  // machine has a second core (the request's HTTP thread only waits meanwhile), else 1: under load the
+  // workers are the parallelism.
+  int answer_threads() const;
   TestHooks hooks_of(const httplib::Request& req) const;
 
   // Runs `work` on the pool and waits for its answer (synchronous endpoints); 504 when the deadline

@@ -106,6 +106,22 @@ TEST(JsonFastPaths, EveryDoubleIsWrittenAsNlohmannWritesIt) {
   }
 }
 
+TEST(JsonFastPaths, AnswerWrittenOnSeveralThreadsIsTheDomDumpByteForByte) {
+  // Big enough for the parallel way (kParallelAnswerRows), which cuts every big array into spans of rows
+  // and joins them: the seams (separators, indents, the first row of each array) are where it could differ.
+  std::mt19937_64 rng(31);
+  for (int threads : {2, 3, 5}) {
+    const std::size_t nv = codec::kParallelAnswerRows / 3 + rng() % 5000, nf = codec::kParallelAnswerRows / 3 + rng() % 5000;
+    const lipmap::ParametrizeResult r = random_result(rng, nv, nf, threads == 3 ? 0 : 1 + rng() % 40);
+    ASSERT_GE(r.map.vertices.size() + r.map.faces.size() + r.map.uv.size(), codec::kParallelAnswerRows);
+    for (bool pretty : {false, true}) {
+      const std::string expected = codec::dump(codec::parametrize_result_to_json(r), pretty);
+      ASSERT_EQ(first_difference(codec::parametrize_result_to_text(r, pretty, threads), expected), "")
+          << threads << " threads" << (pretty ? " pretty" : " compact");
+    }
+  }
+}
+
 // ---- requests ----------------------------------------------------------------------------------------
 
 std::string number_text(std::mt19937_64& rng, double d) {
