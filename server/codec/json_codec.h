@@ -96,6 +96,10 @@ ParametrizeRequest parametrize_request_from_json(const nlohmann::json& body);
 // buffer first (simdjson reads in 64-byte blocks).
 std::optional<ParametrizeRequest> parametrize_request_from_text(std::string_view text, std::size_t padding = 0);
 inline constexpr std::size_t kJsonReadPadding = 64;
+// Writes kJsonReadPadding zero bytes just past text's end, in room the string already has (its size does not
+// change); returns how many, 0 when there is no such room. Then parametrize_request_from_text(text, that)
+// reads the text where it is (simdjson's own iterate of a std::string reads into its capacity the same way).
+std::size_t pad_for_reading(std::string& text);
 nlohmann::ordered_json parametrize_request_to_json(const ParametrizeRequest& request);
 
 // The "boundary" member alone, as a document of its own (`lipmap map --boundary FILE`):

@@ -420,6 +420,14 @@ std::string write_answer_in_parallel(const ordered_json& skeleton, bool pretty, 
 
 }  // namespace
 
+std::size_t pad_for_reading(std::string& text) {
+  if (text.capacity() - text.size() < kJsonReadPadding) return 0;
+  const std::size_t size = text.size();
+  text.append(kJsonReadPadding, '\0');
+  text.resize(size);
+  return kJsonReadPadding;
+}
+
 std::optional<ParametrizeRequest> parametrize_request_from_text(std::string_view text, std::size_t padding) {
   ParametrizeRequest big;
   RequestReader reader(big);

@@ -85,8 +85,8 @@ LoadedRequest parametrize_json(const RequestInput& input) {
   try {
     // With a boundary document the body's boundary is still parsed (a body must be a valid request), then
     // replaced.
-    const std::string text = read(input, input.file);
-    if (auto request = parametrize_request_from_text(text)) out.request = std::move(*request);
+    std::string text = read(input, input.file);
+    if (auto request = parametrize_request_from_text(text, pad_for_reading(text))) out.request = std::move(*request);
     else out.request = parametrize_request_from_json(parse_json(text));
   } catch (const JsonError& e) {
     rethrow_in_file(e, input.file);

@@ -208,10 +208,10 @@ bool pre_routing(Service& service, const httplib::Request& req, httplib::Respons
       if (length > 0) close_after_answer(res);
       return true;
     }
-    // The body is read into req.body next, 16 kB at a time: room for all of it now spares the string its
-    // doublings (a 12.7 MB body was copied about once more, into fresh pages). The length was checked
-    // against the limits above; pages a client never sends are never touched.
-    // The padding lets the JSON reader read the body in place (parametrize_handler.cpp, pad_body).
+    // cpp-httplib appends the body to req.body next, 4 kB at a time: room for all of it now spares the string
+    // its doublings (a 12.7 MB body was copied about once more, into fresh pages). The length was checked
+    // against the limits above; pages a client never sends are never touched. The padding lets the JSON
+    // reader read the body in place (codec::pad_for_reading).
     const_cast<httplib::Request&>(req).body.reserve(static_cast<std::size_t>(length) + codec::kJsonReadPadding);
     return false;
   }

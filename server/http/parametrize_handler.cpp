@@ -43,18 +43,6 @@ std::optional<Answer> check_mesh_limits(const ServerConfig& config, const codec:
   return std::nullopt;
 }
 
-// Zeros written just past the body's end, in room the string already has (pre_routing reserved it): the
-// JSON reader then reads the body where it is rather than a padded copy of it (simdjson's own iterate of a
-// std::string reads into its capacity the same way). Returns how many.
-std::size_t pad_body(const httplib::Request& req) {
-  auto& body = const_cast<std::string&>(req.body);
-  if (body.capacity() - body.size() < codec::kJsonReadPadding) return 0;
-  const std::size_t size = body.size();
-  body.append(codec::kJsonReadPadding, '\0');
-  body.resize(size);
-  return codec::kJsonReadPadding;
-}
-
 }  // namespace
 
 Answer over_budget(const ServerConfig& config, std::size_t estimate, std::size_t body_bytes, const std::string& what) {
@@ -88,7 +76,8 @@ std::variant<ParsedParametrize, Answer> parse_parametrize(Service& service, cons
   // glTF envelope, a glTF model (query parameters mesh, primitive, weld, boundary=texcoord:N) or multipart.
   codec::RequestInput input;
   input.body = req.body;
-  input.body_padding = pad_body(req);
+  // pre_routing reserved the room for it: the JSON reader reads the body in place.
+  input.body_padding = codec::pad_for_reading(const_cast<std::string&>(req.body));
   input.media_type = req.get_header_value("Content-Type");
   if (!codec::request_form(input)) {
     Answer a = *require_json(req);
