@@ -9,6 +9,7 @@
 #include <new>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <thread>
 
 #include <algorithm>
@@ -166,10 +167,11 @@ private:
   std::string code_;
 };
 
-void write_text_file(const std::string& path, const std::string& text) {
+// `text`, then `tail` (a JSON answer's final newline, without copying the answer to append it).
+void write_text_file(const std::string& path, const std::string& text, std::string_view tail = {}) {
   std::ofstream file(path, std::ios::binary | std::ios::trunc);
   if (!file) throw MapFailure("output_file_unwritable", "cannot create '" + path + "': " + std::strerror(errno));
-  file << text;
+  file << text << tail;
   file.flush();
   if (!file) throw MapFailure("output_file_unwritable", "cannot write '" + path + "'");
 }
@@ -286,7 +288,7 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
     } else {
       // One job alone: a big answer is formatted on two threads when the machine has them.
       const int threads = std::thread::hardware_concurrency() >= 2 ? 2 : 1;
-      write_text_file(args.output_file, codec::parametrize_result_to_text(result, args.pretty, threads) + "\n");
+      write_text_file(args.output_file, codec::parametrize_result_to_text(result, args.pretty, threads), "\n");
     }
     if (!args.preview_file.empty())
       write_text_file(args.preview_file, preview::render_svg(preview::picture_of(result, "lipmap map " + args.mesh_file)));

@@ -158,9 +158,9 @@ Answer post_parametrize(Service& service, const httplib::Request& req) {
     apply_hooks(hooks, token);
     // The answer's text is this request's alone: it is moved, not copied, into the response (middleware.cpp).
     const std::shared_ptr<const ParametrizeResult> result = map_request(*p.request, token, {}, metrics);
-    if (answer_format) return gltf_answer(p.asset, *result, *answer_format);
     Answer a;
-    a.body = codec::parametrize_result_to_text(*result, false, svc.answer_threads());
+    if (answer_format) a = gltf_answer(p.asset, *result, *answer_format);
+    else a.body = codec::parametrize_result_to_text(*result, false, svc.answer_threads());
     a.keep_until_sent = p.request;
     return a;
   });
