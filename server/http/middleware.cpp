@@ -4,6 +4,7 @@
 #include <cctype>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <memory>
 #include <optional>
 
@@ -46,8 +47,32 @@ void begin_request(const httplib::Request& req, httplib::Response& res) {
   res.set_header("X-Request-Id", tl_request.id);
 }
 
+namespace {
+
+// Server-Timing (W3C): where this request's time went on the server, for a client or a browser's network
+// panel to read beside the answer: parsing the body, waiting for a worker, the engine's own total, and the
+// rest of the worker's time (mostly writing the answer). Only what the request went through is named.
+std::string server_timing(const RequestContext& r) {
+  std::string out;
+  auto add = [&](const char* name, double ms) {
+    if (ms < 0) return;
+    char buf[48];
+    std::snprintf(buf, sizeof buf, "%s%s;dur=%.1f", out.empty() ? "" : ", ", name, ms);
+    out += buf;
+  };
+  add("parse", r.parse_ms);
+  add("queue", r.queue_ms);
+  add("engine", r.engine_ms);
+  if (r.work_ms >= 0 && r.engine_ms >= 0) add("answer", std::max(0.0, r.work_ms - r.engine_ms));
+  else add("work", r.work_ms);
+  return out;
+}
+
+}  // namespace
+
 void send(httplib::Response& res, Answer a) {
   res.status = a.status;
+  if (const std::string timing = server_timing(tl_request); !timing.empty()) res.set_header("Server-Timing", timing);
   tl_request.kept = std::move(a.keep_until_sent);
   for (auto& [k, v] : a.headers) res.set_header(k.c_str(), v);
   if (a.problem) {
@@ -320,6 +345,7 @@ void log_request(Service& service, const httplib::Request& req, const httplib::R
   if (tl_request.parse_ms >= 0) fields["parse_ms"] = rounded(tl_request.parse_ms);
   if (tl_request.queue_ms >= 0) fields["queue_ms"] = rounded(tl_request.queue_ms);
   if (tl_request.work_ms >= 0) fields["work_ms"] = rounded(tl_request.work_ms);
+  if (tl_request.engine_ms >= 0) fields["engine_ms"] = rounded(tl_request.engine_ms);
   service.event(level, std::move(fields));
   tl_request = RequestContext{};
 }

@@ -24,8 +24,8 @@ struct RequestContext {
   Clock::time_point start{};
   std::string problem_code;  // the code of a problem answer, for the log line
   // Where the time went (for the log line; negative: not applicable): parsing the body on this thread,
-  // waiting for a worker, the worker's work (engine and answer serialization).
-  double parse_ms = -1, queue_ms = -1, work_ms = -1;
+  // waiting for a worker, the worker's work (engine and answer serialization), the engine alone.
+  double parse_ms = -1, queue_ms = -1, work_ms = -1, engine_ms = -1;
   // What the answer kept alive (Answer::keep_until_sent), freed once the answer is out (log_request).
   std::shared_ptr<const void> kept;
 };

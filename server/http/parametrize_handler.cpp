@@ -161,7 +161,10 @@ Answer post_parametrize(Service& service, const httplib::Request& req) {
     Answer a;
     if (answer_format) a = gltf_answer(p.asset, *result, *answer_format);
     else a.body = codec::parametrize_result_to_text(*result, false, svc.answer_threads());
-    a.keep_until_sent = p.request;
+    a.engine_ms = result->timings.total;
+    // The request and the result are freed once the answer is out, not before its first byte.
+    a.keep_until_sent = std::make_shared<const std::pair<std::shared_ptr<const codec::ParametrizeRequest>,
+                                                         std::shared_ptr<const ParametrizeResult>>>(p.request, result);
     return a;
   });
 }

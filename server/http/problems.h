@@ -28,12 +28,13 @@ struct Answer {
   std::string content_type = "application/json";
   std::string body;
   std::shared_ptr<const std::string> shared_body;  // large bodies (results) are shared until written
-  // Freed after the answer is written, not before: a big request's arrays (250k faces are 250k frees) would
-  // otherwise be freed on the request's thread between the engine's end and the answer's first byte.
+  // Freed after the answer is written, not before: a big request's arrays (250k faces are 250k frees) and the
+  // engine's result would otherwise be freed between the engine's end and the answer's first byte.
   std::shared_ptr<const void> keep_until_sent;
   std::optional<nlohmann::ordered_json> problem;
   std::vector<std::pair<std::string, std::string>> headers;
   double queue_ms = -1, work_ms = -1;  // set by Service::run_sync
+  double engine_ms = -1;  // the engine's own total (the sum of its stages), when the answer ran it
 };
 
 // The problem of `code`: status and title from the error table.

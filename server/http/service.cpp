@@ -181,6 +181,7 @@ Answer Service::run_sync(InputKind kind, Work work) {
     answer = future.get();
     this_request().queue_ms = answer.queue_ms;
     this_request().work_ms = answer.work_ms;
+    this_request().engine_ms = answer.engine_ms;
   } else {
     sync->cancel(CancelReason::none);
     answer = problem_answer("deadline_exceeded", "the work did not finish within the deadline of " +

@@ -146,6 +146,30 @@ teardown_file() { stop_server MAIN; }
   check_map "$req"
 }
 
+@test "parametrize: Server-Timing names parse, queue, engine and answer; engine is the answer's own total" {
+  req="$(make_body grid10_spiral_timing grid 10 spiral)"
+  call POST "$MAIN_URL/v1/parametrize" --json "@$req" -H 'X-Request-Id: timing-probe-1'
+  expect 200
+  timing="$(header Server-Timing)"
+  [[ "$timing" =~ ^parse\;dur=[0-9]+\.[0-9],\ queue\;dur=[0-9]+\.[0-9],\ engine\;dur=[0-9]+\.[0-9],\ answer\;dur=[0-9]+\.[0-9]$ ]]
+  engine="$(sed -E 's/.*engine;dur=([0-9.]+).*/\1/' <<<"$timing")"
+  total="$(jq .diagnostics.timings_ms.total "$answer")"
+  # the header rounds to 0.1 ms
+  awk -v a="$engine" -v b="$total" 'BEGIN { d = a - b; exit !(d <= 0.05 && d >= -0.05) }'
+  # and the request log carries the same engine time
+  line=""
+  for i in $(seq 50); do
+    line="$(grep '"request_id":"timing-probe-1"' "$BATS_FILE_TMPDIR/MAIN.log" || true)"
+    [ -n "$line" ] && break
+    sleep 0.1
+  done
+  jq -e --argjson t "$total" '(.engine_ms - $t) | fabs < 0.001' <<<"$line"
+  # a refused body went through parsing only
+  call POST "$MAIN_URL/v1/parametrize" --json '{"mesh": 1}'
+  expect 400 wrong_type
+  [[ "$(header Server-Timing)" =~ ^parse\;dur=[0-9]+\.[0-9]$ ]]
+}
+
 # ---- jobs ----------------------------------------------------------------------------------------------
 
 @test "jobs: POST -> 202 + Location, poll to succeeded with progress by stage, result = the synchronous answer" {
