@@ -33,6 +33,12 @@ int step_budget(const ParametrizeOptions& options, std::size_t faces) {
   return std::min(options.max_iterations, std::max(kMinOptimizeSteps, static_cast<int>(by_work)));
 }
 
+int newton_step_budget(const ParametrizeOptions& options, std::size_t faces) {
+  if (options.time_budget_ms > 0) return options.max_iterations;
+  const double by_work = kNewtonFaceSteps / static_cast<double>(std::max<std::size_t>(faces, 1));
+  return std::min(options.max_iterations, std::max(kMinOptimizeSteps, static_cast<int>(by_work)));
+}
+
 Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, double uv_area, RefinedMap& map,
                           const ParametrizeOptions& options, const CancelToken* cancel,
                           const std::vector<Point3>* rest) {
@@ -72,6 +78,10 @@ Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, 
   s.energy = options.optimize == OptimizeEnergy::mips ? detail::UvEnergy::mips : detail::UvEnergy::symmetric_dirichlet;
   s.flip_free = true;
   s.max_iterations = step_budget(options, map.faces.size());
+  if (s.energy == detail::UvEnergy::mips && map.faces.size() <= kNewtonMaxFaces) {
+    s.newton = true;
+    s.max_iterations = newton_step_budget(options, map.faces.size());
+  }
   s.relative_tolerance = 1e-5;
   s.cancel = cancel;
   if (options.time_budget_ms > 0)

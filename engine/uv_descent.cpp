@@ -103,6 +103,47 @@ double dot(const Vec2s& x, const Vec2s& y) { return (x.array() * y.array()).sum(
 
 double regularized_det(double det, double eps) { return 0.5 * (det + std::sqrt(eps * eps + det * det)); }
 
+std::array<double, 16> projected_mips_hessian(double a, double b, double c, double d) {
+  // J = rot(phi) diag(s1, s2) rot(theta): the closed-form SVD of a 2 x 2 matrix.
+  const double E = 0.5 * (a + d), F = 0.5 * (a - d), G = 0.5 * (c + b), H = 0.5 * (c - b);
+  const double Q = std::hypot(E, H), R = std::hypot(F, G);
+  const double s1 = Q + R, s2 = Q - R;
+  const double a1 = std::atan2(G, F), a2 = std::atan2(H, E);
+  const double phi = 0.5 * (a2 + a1), theta = 0.5 * (a2 - a1);
+  const double cu = std::cos(phi), su = std::sin(phi), cw = std::cos(theta), sw = std::sin(theta);
+  // The eigenmatrix U M W of a mode M, as a row-major 4-vector.
+  auto mode = [&](double m00, double m01, double m10, double m11) {
+    const double p00 = cu * m00 - su * m10, p01 = cu * m01 - su * m11;
+    const double p10 = su * m00 + cu * m10, p11 = su * m01 + cu * m11;
+    return std::array<double, 4>{p00 * cw + p01 * sw, p01 * cw - p00 * sw, p10 * cw + p11 * sw, p11 * cw - p10 * sw};
+  };
+  std::array<double, 16> out{};
+  auto add = [&](double lambda, const std::array<double, 4>& q) {
+    if (!(lambda > 0)) return;
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) out[4 * i + j] += lambda * q[i] * q[j];
+  };
+  if (!(s2 > 0)) return out;
+  const double p = s1 * s2, p2 = p * p, r = std::sqrt(0.5);
+  add(1 / p + (s1 * s1 + s1 * s2 + s2 * s2) / p2, mode(0, r, r, 0));  // flip
+  // Scaling: the Hessian of f in (s1, s2).
+  const double f11 = 2 * s2 / (s1 * s1 * s1), f22 = 2 * s1 / (s2 * s2 * s2), f12 = -1 / (s1 * s1) - 1 / (s2 * s2);
+  const double mean = 0.5 * (f11 + f22), radius = std::hypot(0.5 * (f11 - f22), f12);
+  const double l1 = mean + radius, l2 = mean - radius;
+  // The eigenvector of l1: (f12, l1 - f11) or (l1 - f22, f12), whichever is the better conditioned.
+  double ex = f12, ey = l1 - f11;
+  if (std::hypot(l1 - f22, f12) > std::hypot(ex, ey)) ex = l1 - f22, ey = f12;
+  const double n = std::hypot(ex, ey);
+  if (n > 0) {
+    ex /= n, ey /= n;
+  } else {
+    ex = 1, ey = 0;
+  }
+  add(l1, mode(ex, 0, 0, ey));
+  add(l2, mode(-ey, 0, 0, ex));
+  return out;
+}
+
 struct UvDescent::Impl {
   const std::vector<Triangle>& faces;
   std::vector<int> index;        // free index of each vertex, -1 when pinned
@@ -210,6 +251,107 @@ struct UvDescent::Impl {
       if (d > 0) out.row(i) /= d;
     }
     return out;
+  }
+
+  // ---- projected Newton (mips) ----
+  // The Hessian over the free uv, unknown 2 i (u) and 2 i + 1 (v) of free vertex i, lower triangle: its
+  // pattern is built once; slot[21 k + t] is where entry t of active face k's 6 x 6 lower triangle goes (-1:
+  // a pinned corner).
+  SpMat hessian;
+  std::vector<int> hessian_slot, hessian_diagonal;
+  Eigen::CholmodDecomposition<SpMat, Eigen::Lower> hessian_factor;
+  bool hessian_analyzed = false;
+
+  int dof(int f, int a) const {
+    const int i = index[faces[f][a / 2]];
+    return i < 0 ? -1 : 2 * i + a % 2;
+  }
+
+  void build_hessian_pattern() {
+    const int n = 2 * static_cast<int>(free_vertex.size());
+    std::vector<Eigen::Triplet<double>> entries;
+    entries.reserve(active.size() * 21 + static_cast<std::size_t>(n));
+    for (int r = 0; r < n; ++r) entries.emplace_back(r, r, 0.0);
+    for (int f : active)
+      for (int a = 0; a < 6; ++a)
+        for (int b = 0; b < a; ++b) {
+          const int ra = dof(f, a), rb = dof(f, b);
+          if (ra >= 0 && rb >= 0) entries.emplace_back(std::max(ra, rb), std::min(ra, rb), 0.0);
+        }
+    hessian.resize(n, n);
+    hessian.setFromTriplets(entries.begin(), entries.end());
+    hessian.makeCompressed();
+    auto slot_of = [&](int row, int col) {
+      const int* begin = hessian.innerIndexPtr() + hessian.outerIndexPtr()[col];
+      const int* end = hessian.innerIndexPtr() + hessian.outerIndexPtr()[col + 1];
+      return static_cast<int>(std::lower_bound(begin, end, row) - hessian.innerIndexPtr());
+    };
+    hessian_slot.assign(active.size() * 21, -1);
+    for (std::size_t k = 0; k < active.size(); ++k) {
+      int t = 0;
+      for (int a = 0; a < 6; ++a)
+        for (int b = 0; b <= a; ++b, ++t) {
+          const int ra = dof(active[k], a), rb = dof(active[k], b);
+          if (ra >= 0 && rb >= 0) hessian_slot[21 * k + t] = slot_of(std::max(ra, rb), std::min(ra, rb));
+        }
+    }
+    hessian_diagonal.resize(static_cast<std::size_t>(n));
+    for (int r = 0; r < n; ++r) hessian_diagonal[static_cast<std::size_t>(r)] = slot_of(r, r);
+  }
+
+  // p = -H^-1 g with H the sum of the faces' projected mips Hessians (+ a tiny multiple of the identity when
+  // H is only semi-definite). False when no factorization succeeds.
+  bool newton_direction(const std::vector<Point2>& uv, const Vec2s& g, Vec2s& p) {
+    if (hessian_slot.empty() && !active.empty()) build_hessian_pattern();
+    double* values = hessian.valuePtr();
+    std::fill(values, values + hessian.nonZeros(), 0.0);
+    for (std::size_t k = 0; k < active.size(); ++k) {
+      const int f = active[k];
+      const M2& B = rest_inverse[f];
+      const M2 J = mul(edges(uv, f), B);
+      const std::array<double, 16> hj = projected_mips_hessian(J.a, J.b, J.c, J.d);
+      // dJ / d(u0, v0, u1, v1, u2, v2): J's row 0 from the u's, row 1 from the v's, columns through B.
+      const double gk[3][2] = {{-(B.a + B.c), -(B.b + B.d)}, {B.a, B.b}, {B.c, B.d}};
+      double M[4][6] = {};
+      for (int c = 0; c < 3; ++c) {
+        M[0][2 * c] = gk[c][0], M[1][2 * c] = gk[c][1];
+        M[2][2 * c + 1] = gk[c][0], M[3][2 * c + 1] = gk[c][1];
+      }
+      double HM[4][6];
+      for (int i = 0; i < 4; ++i)
+        for (int j = 0; j < 6; ++j)
+          HM[i][j] = hj[4 * i] * M[0][j] + hj[4 * i + 1] * M[1][j] + hj[4 * i + 2] * M[2][j] + hj[4 * i + 3] * M[3][j];
+      int t = 0;
+      for (int a = 0; a < 6; ++a)
+        for (int b = 0; b <= a; ++b, ++t) {
+          const int slot = hessian_slot[21 * k + static_cast<std::size_t>(t)];
+          if (slot < 0) continue;
+          values[slot] += weight[f] * (M[0][a] * HM[0][b] + M[1][a] * HM[1][b] + M[2][a] * HM[2][b] + M[3][a] * HM[3][b]);
+        }
+    }
+    double trace = 0;
+    for (int d : hessian_diagonal) trace += values[d];
+    const double mean_diagonal = hessian_diagonal.empty() ? 1 : trace / static_cast<double>(hessian_diagonal.size());
+    use_single_threaded_solvers();
+    if (!hessian_analyzed) {
+      hessian_factor.cholmod().print = 0;
+      hessian_factor.analyzePattern(hessian);
+      hessian_analyzed = true;
+    }
+    for (double shift : {1e-10, 1e-6, 1e-3}) {
+      for (int d : hessian_diagonal) values[d] += shift * mean_diagonal;
+      hessian_factor.factorize(hessian);
+      if (hessian_factor.info() == Eigen::Success) break;
+    }
+    if (hessian_factor.info() != Eigen::Success) return false;
+    const int n = static_cast<int>(free_vertex.size());
+    Eigen::VectorXd rhs(2 * n);
+    for (int i = 0; i < n; ++i) rhs(2 * i) = -g(i, 0), rhs(2 * i + 1) = -g(i, 1);
+    const Eigen::VectorXd x = hessian_factor.solve(rhs);
+    if (hessian_factor.info() != Eigen::Success || !x.allFinite()) return false;
+    p.resize(n, 2);
+    for (int i = 0; i < n; ++i) p(i, 0) = x(2 * i), p(i, 1) = x(2 * i + 1);
+    return true;
   }
 
   Vec2s laplacian_times(const Vec2s& x) const {
@@ -332,6 +474,7 @@ DescentOutcome UvDescent::minimize(std::vector<Point2>& uv, const DescentSetting
   out.energy_before = out.energy_after = energy(uv, s);
   if (m.free_vertex.empty() || !std::isfinite(out.energy_before) || s.max_iterations <= 0) return out;
   const bool flip_free = s.flip_free && s.energy != UvEnergy::untangle;
+  bool newton = s.newton && s.energy == UvEnergy::mips;
   const int n = static_cast<int>(m.free_vertex.size());
   // L-BFGS memory (Nocedal & Wright Alg. 7.4), vectors as n x 2 blocks.
   constexpr std::size_t kMemory = 8;
@@ -346,25 +489,29 @@ DescentOutcome UvDescent::minimize(std::vector<Point2>& uv, const DescentSetting
   for (int it = 0; it < s.max_iterations; ++it) {
     check_cancel(s.cancel);
     if (Clock::now() >= s.deadline) break;
-    // Two-loop recursion.
-    Vec2s q = g;
-    std::vector<double> alpha(S.size());
-    for (std::size_t k = S.size(); k-- > 0;) {
-      alpha[k] = rho[k] * dot(S[k], q);
-      q -= alpha[k] * Y[k];
-    }
-    Vec2s r = gamma * m.precondition(q);
-    for (std::size_t k = 0; k < S.size(); ++k) {
-      const double beta = rho[k] * dot(Y[k], r);
-      r += (alpha[k] - beta) * S[k];
-    }
-    p = -r;
-    double slope = dot(g, p);
-    if (!(slope < 0)) {  // not a descent direction: forget the curvature pairs
-      S.clear(), Y.clear(), rho.clear();
-      p = -gamma * m.precondition(g);
+    double slope = 0;
+    const bool newton_step = newton && m.newton_direction(uv, g, p) && (slope = dot(g, p)) < 0;
+    if (!newton_step) {
+      // Two-loop recursion.
+      Vec2s q = g;
+      std::vector<double> alpha(S.size());
+      for (std::size_t k = S.size(); k-- > 0;) {
+        alpha[k] = rho[k] * dot(S[k], q);
+        q -= alpha[k] * Y[k];
+      }
+      Vec2s r = gamma * m.precondition(q);
+      for (std::size_t k = 0; k < S.size(); ++k) {
+        const double beta = rho[k] * dot(Y[k], r);
+        r += (alpha[k] - beta) * S[k];
+      }
+      p = -r;
       slope = dot(g, p);
-      if (!(slope < 0)) break;
+      if (!(slope < 0)) {  // not a descent direction: forget the curvature pairs
+        S.clear(), Y.clear(), rho.clear();
+        p = -gamma * m.precondition(g);
+        slope = dot(g, p);
+        if (!(slope < 0)) break;
+      }
     }
     double t = 1;
     if (flip_free) t = std::min(1.0, 0.9 * m.max_flip_free_step(uv, p));
@@ -384,7 +531,11 @@ DescentOutcome UvDescent::minimize(std::vector<Point2>& uv, const DescentSetting
     }
     if (!accepted) {
       // A stall: retry once along the preconditioned gradient with a fresh memory, else stop (uv keeps the
-      // last accepted positions).
+      // last accepted positions). A Newton step that failed hands over to L-BFGS.
+      if (newton_step) {
+        newton = false;
+        continue;
+      }
       if (S.empty()) break;
       S.clear(), Y.clear(), rho.clear();
       continue;

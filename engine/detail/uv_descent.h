@@ -25,6 +25,7 @@
 // positive).
 #pragma once
 
+#include <array>
 #include <chrono>
 #include <memory>
 #include <vector>
@@ -41,6 +42,10 @@ struct DescentSettings {
   double epsilon = 0;        // untangle only: chi's regularization
   double theta = 1.0 / 128;  // untangle only: weight of the area term (Garanzha et al. 2021 use a small one)
   bool flip_free = true;     // mips / symmetric_dirichlet: every accepted step keeps every triangle positive
+  // mips only: projected Newton steps (the sum of the triangles' Hessians, each projected onto the positive
+  // semi-definite matrices, factorized at every step) instead of L-BFGS; after a Newton step that the line
+  // search cannot accept, L-BFGS goes on from there.
+  bool newton = false;
   int max_iterations = 100;
   double relative_tolerance = 1e-7;  // stop when one iteration lowers the energy by less than this fraction
   // untangle: stop as soon as every face is strictly positive (exact predicate). The untangler's job ends
@@ -83,6 +88,15 @@ private:
   struct Impl;
   std::unique_ptr<Impl> impl_;
 };
+
+// The Hessian of mips, |J|^2 / det J, with respect to J = [[a, b], [c, d]] (det J > 0) as the row-major 4-vector
+// (a, b, c, d), projected onto the positive semi-definite matrices (its negative eigenvalues set to 0): a
+// row-major 4 x 4 matrix. Closed form from J = U diag(s1, s2) W, s1 >= s2 > 0 (the analytic eigensystem of an
+// isotropic energy, Smith, de Goes & Kim 2019): with f = s1 / s2 + s2 / s1, the flip mode U [[0,1],[1,0]] W / sqrt 2
+// has eigenvalue 1 / (s1 s2) + (s1^2 + s1 s2 + s2^2) / (s1 s2)^2 > 0, the twist mode U [[0,-1],[1,0]] W / sqrt 2
+// has -(s1 - s2)^2 / (s1 s2)^2 <= 0 (dropped), and the scaling modes U diag(e) W are the eigenpairs e of f's
+// 2 x 2 Hessian in (s1, s2), one of them never positive.
+std::array<double, 16> projected_mips_hessian(double a, double b, double c, double d);
 
 // chi(D, eps) of Garanzha et al. 2021: a smooth positive stand-in for max(D, 0).
 double regularized_det(double det, double eps);
