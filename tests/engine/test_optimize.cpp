@@ -29,21 +29,7 @@ using targetgen::Kind;
 
 using pipelinecases::count_folded_by_checker;
 
-RawMesh bumpy_grid(int n) {
-  RawMesh m;
-  for (int j = 0; j <= n; ++j)
-    for (int i = 0; i <= n; ++i) {
-      const double x = double(i) / n, y = double(j) / n;
-      m.vertices.push_back({x, y, 0.3 * std::sin(4 * x) * std::cos(3 * y)});
-    }
-  auto id = [n](int i, int j) { return j * (n + 1) + i; };
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) {
-      m.faces.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
-      m.faces.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
-    }
-  return m;
-}
+using pipelinecases::bumpy_grid;
 
 TEST(OptimizeStage, EveryStepKeepsEveryTrianglePositiveAndLowersTheEnergy) {
   int cases = 0;

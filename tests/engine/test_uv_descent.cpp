@@ -100,18 +100,7 @@ struct Start {
 };
 
 Start distorted_grid(int n, unsigned seed) {
-  RawMesh m;
-  for (int j = 0; j <= n; ++j)
-    for (int i = 0; i <= n; ++i) {
-      const double x = double(i) / n, y = double(j) / n;
-      m.vertices.push_back({x, y, 0.3 * std::sin(4 * x) * std::cos(3 * y)});
-    }
-  auto id = [n](int i, int j) { return j * (n + 1) + i; };
-  for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) {
-      m.faces.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
-      m.faces.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
-    }
+  const RawMesh m = pipelinecases::bumpy_grid(n);
   Start s{validate_mesh(m), {}, {}};
   s.pinned.assign(s.mesh.vertices.size(), 0);
   for (int v : s.mesh.boundary_loop) s.pinned[v] = 1;

@@ -9,6 +9,18 @@ setup_file() { serve_for_file MAIN --workers 2 --queue 16; }
 
 teardown_file() { stop_server MAIN; }
 
+# log_line REQUEST_ID: the MAIN service's log line for that request (it is written after the answer: waits up
+# to 5 s for it).
+log_line() {
+  local line="" i
+  for i in $(seq 50); do
+    line="$(grep "\"request_id\":\"$1\"" "$BATS_FILE_TMPDIR/MAIN.log" || true)"
+    [ -n "$line" ] && break
+    sleep 0.1
+  done
+  printf '%s\n' "$line"
+}
+
 # ---- probes, metrics, documents -------------------------------------------------------------------------
 
 @test "GET /healthz and /readyz: 200 text, with an X-Request-Id" {
@@ -157,12 +169,7 @@ teardown_file() { stop_server MAIN; }
   # the header rounds to 0.1 ms
   awk -v a="$engine" -v b="$total" 'BEGIN { d = a - b; exit !(d <= 0.05 && d >= -0.05) }'
   # and the request log carries the same engine time
-  line=""
-  for i in $(seq 50); do
-    line="$(grep '"request_id":"timing-probe-1"' "$BATS_FILE_TMPDIR/MAIN.log" || true)"
-    [ -n "$line" ] && break
-    sleep 0.1
-  done
+  line="$(log_line timing-probe-1)"
   jq -e --argjson t "$total" '(.engine_ms - $t) | fabs < 0.001' <<<"$line"
   # a refused body went through parsing only
   call POST "$MAIN_URL/v1/parametrize" --json '{"mesh": 1}'
@@ -255,12 +262,7 @@ teardown_file() { stop_server MAIN; }
 
 @test "the request log: one JSON line per request with its id, route, status and time" {
   call GET "$MAIN_URL/healthz" -H 'X-Request-Id: log-probe-1'
-  line=""
-  for i in $(seq 50); do
-    line="$(grep '"request_id":"log-probe-1"' "$BATS_FILE_TMPDIR/MAIN.log" || true)"
-    [ -n "$line" ] && break
-    sleep 0.1
-  done
+  line="$(log_line log-probe-1)"
   jq -e '.event == "request" and .route == "/healthz" and .status == 200 and .method == "GET" and (.ms | type) == "number" and (.ts | test("Z$"))' <<<"$line"
   # every line of the log is JSON
   while IFS= read -r l; do jq -e . <<<"$l" >/dev/null || { echo "not JSON: $l" >&2; return 1; }; done <"$BATS_FILE_TMPDIR/MAIN.log"

@@ -3,6 +3,7 @@
 // (map_checker.h) on its answer.
 #pragma once
 
+#include <cmath>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -27,6 +28,24 @@ struct LoadedMesh {
   std::vector<Triangle> faces;
   std::vector<int> loop;  // interior on the left, from the lowest boundary vertex; empty if not one cycle
 };
+
+// An n x n grid of the unit square (each cell cut along its (i, j)-(i+1, j+1) diagonal), z = 0.3 sin(4x) cos(3y):
+// a curved disk for the descent tests, whose flat grid squeezed towards a corner is a positive, distorted start.
+inline RawMesh bumpy_grid(int n) {
+  RawMesh m;
+  for (int j = 0; j <= n; ++j)
+    for (int i = 0; i <= n; ++i) {
+      const double x = double(i) / n, y = double(j) / n;
+      m.vertices.push_back({x, y, 0.3 * std::sin(4 * x) * std::cos(3 * y)});
+    }
+  auto id = [n](int i, int j) { return j * (n + 1) + i; };
+  for (int j = 0; j < n; ++j)
+    for (int i = 0; i < n; ++i) {
+      m.faces.push_back({id(i, j), id(i + 1, j), id(i + 1, j + 1)});
+      m.faces.push_back({id(i, j), id(i + 1, j + 1), id(i, j + 1)});
+    }
+  return m;
+}
 
 // Faces whose uv triangle is not strictly counterclockwise, by the checkers' own exact orientation.
 inline int count_folded_by_checker(const std::vector<Point2>& uv, const std::vector<Triangle>& faces) {
