@@ -78,10 +78,6 @@ Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, 
   s.energy = options.optimize == OptimizeEnergy::mips ? detail::UvEnergy::mips : detail::UvEnergy::symmetric_dirichlet;
   s.flip_free = true;
   s.max_iterations = step_budget(options, map.faces.size());
-  if (s.energy == detail::UvEnergy::mips && map.faces.size() <= kNewtonMaxFaces) {
-    s.newton = true;
-    s.max_iterations = newton_step_budget(options, map.faces.size());
-  }
   s.relative_tolerance = 1e-5;
   s.cancel = cancel;
   if (options.time_budget_ms > 0)
@@ -92,7 +88,25 @@ Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, 
     return out;
   }
   const std::vector<Point2> start_uv = map.uv;
-  const detail::DescentOutcome r = descent.minimize(map.uv, s);
+  detail::DescentOutcome r = descent.minimize(map.uv, s);
+  // Then projected Newton from where L-BFGS stopped (MIPS, small maps): L-BFGS's cheap steps do most of the
+  // descent, and its "converged" can be a crawl along a flat valley that Newton's steps leave in a few steps.
+  // Newton from the start instead took 39 steps (635 ms) on a 10k-triangle job that L-BFGS finishes in 103
+  // steps (114 ms): its flip-free steps are short while the triangles are far from their optimum.
+  int budget = s.max_iterations;
+  if (s.energy == detail::UvEnergy::mips && map.faces.size() <= kNewtonMaxFaces && !(r.iterations >= options.max_iterations)) {
+    detail::DescentSettings n = s;
+    n.newton = true;
+    // A Newton step costs a factorization: three in a row that each gain less than 0.01 % end it (on the
+    // 10k-triangle job above, 16 steps of 0.002 % each took 240 ms for a 0.04 % lower mean K).
+    n.relative_tolerance = 1e-4;
+    n.max_iterations = std::min(options.max_iterations - r.iterations, newton_step_budget(options, map.faces.size()));
+    const detail::DescentOutcome polished = descent.minimize(map.uv, n);
+    r.iterations += polished.iterations;
+    r.energy_after = polished.energy_after;
+    r.converged = polished.converged;
+    budget = r.iterations - polished.iterations + n.max_iterations;
+  }
   out.ran = true;
   // MIPS lowers the mean of K + 1/K; the mean of K itself could, in principle, rise a little (seen: 4.4614 ->
   // 4.4627 on a C-shaped target). The stage promises lower conformal distortion, so it keeps the start then.
@@ -108,7 +122,7 @@ Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, 
   out.energy_after = r.energy_after;
   if (r.converged) out.outcome = "converged";
   else if (r.iterations >= options.max_iterations) out.outcome = "stopped at max_iterations";
-  else if (r.iterations >= s.max_iterations) out.outcome = "stopped at the work budget (steps x triangles; a time budget lifts it)";
+  else if (r.iterations >= budget) out.outcome = "stopped at the work budget (steps x triangles; a time budget lifts it)";
   else if (options.time_budget_ms > 0 && std::chrono::steady_clock::now() >= s.deadline) out.outcome = "stopped at the time budget";
   else out.outcome = "stopped: no further flip-free decrease";
   return out;

@@ -6,8 +6,8 @@
 // Energy (ParametrizeOptions::optimize): MIPS tr(J^T J) / det J = K + 1/K (the default: it lowers the
 // conformal distortion K = sigma1 / sigma2 that the quality stage reports) or the symmetric Dirichlet energy;
 // minimized with the flip-free line search of Smith & Schaefer 2015 (engine/detail/uv_descent.h), the accepted
-// positions checked with the exact orientation predicate: by projected Newton steps for MIPS on maps of up to
-// kNewtonMaxFaces triangles, else (and for the symmetric Dirichlet energy) by Laplacian-preconditioned L-BFGS.
+// positions checked with the exact orientation predicate: by Laplacian-preconditioned L-BFGS, then, for MIPS on
+// maps of up to kNewtonMaxFaces triangles, by projected Newton steps from where it stopped.
 //
 // What moves: the interior vertices. The boundary is pinned exactly. Inserted vertices, and the original
 // corners of the source faces that carry inserted vertices, stay too: those faces' refined polygons are the
@@ -37,13 +37,13 @@ inline constexpr double kOptimizeFaceSteps = 2e6;
 inline constexpr int kMinOptimizeSteps = 30;
 int step_budget(const ParametrizeOptions& options, std::size_t faces);
 
-// Projected Newton for MIPS up to kNewtonMaxFaces triangles, at most kNewtonFaceSteps / #triangles steps (at
-// least kMinOptimizeSteps, at most max_iterations; a time budget lifts it as above). A Newton step factorizes
-// the Hessian (about 7 L-BFGS steps' time at 8k triangles) but converges where L-BFGS crawls: on the bench's
-// 5k-8k-triangle meshes (bench/bench_quality) the mean K went 0.88 -> 0.79 (wiggly_strip) and 0.66 -> 0.57
-// (swirl_domain) of the certificate's, where L-BFGS had used up its steps, for 1.2-1.4x the stage's time.
-// Above the bound (the 30k+ meshes, 1M) a factorization per step would cost more than the pipeline's budget
-// of about 2x a Tutte map (docs/architecture.md), and L-BFGS keeps them there.
+// Then, for MIPS on maps of up to kNewtonMaxFaces triangles, projected Newton from where L-BFGS stopped, at most
+// kNewtonFaceSteps / #triangles more steps (at least kMinOptimizeSteps, within max_iterations in all; a time
+// budget lifts it as above). A Newton step factorizes the Hessian (about 20 L-BFGS steps' time at 8k triangles)
+// but converges where L-BFGS crawls: on the bench's 5k-8k-triangle meshes (bench/bench_quality) the mean K went
+// from 0.88 to 0.79 (wiggly_strip) and from 0.66 to 0.57 (swirl_domain) of the certificate's. Above the bound
+// (the 30k+ meshes, 1M) a factorization per step would cost more than the pipeline's budget of about 2x a
+// Tutte map (docs/architecture.md), and L-BFGS alone keeps them there.
 inline constexpr std::size_t kNewtonMaxFaces = 30000;
 inline constexpr double kNewtonFaceSteps = 4e5;
 int newton_step_budget(const ParametrizeOptions& options, std::size_t faces);
