@@ -6,7 +6,7 @@
 // Laplacian of the rest mesh, factorized once with CHOLMOD and reused by every iteration and every call
 // (the "Laplacian preconditioned" quasi-Newton of Zhu, Bridson & Kaufman 2018, Blended Cured Quasi-Newton,
 // and of Kovalsky, Galun & Lipman 2016, AQP): one sparse back-solve per iteration, no Hessian assembly.
-// Or, for mips (DescentSettings::newton), projected Newton (Teran, Sifakis, Irving & Fedkiw 2005): the sum of
+// Or, for mips (DescentSettings::newton; the optimize stage runs it after L-BFGS), projected Newton (Teran, Sifakis, Irving & Fedkiw 2005): the sum of
 // the triangles' Hessians, each projected onto the positive semi-definite matrices in closed form, refactorized
 // (numerically; its pattern is analysed once) at every step. Far costlier per step, it converges where L-BFGS
 // crawls on MIPS's flat valleys.
