@@ -6,7 +6,8 @@
 // Energy (ParametrizeOptions::optimize): MIPS tr(J^T J) / det J = K + 1/K (the default: it lowers the
 // conformal distortion K = sigma1 / sigma2 that the quality stage reports) or the symmetric Dirichlet energy;
 // minimized with the flip-free line search of Smith & Schaefer 2015 (engine/detail/uv_descent.h), the accepted
-// positions checked with the exact orientation predicate: by Laplacian-preconditioned L-BFGS, then, for MIPS on
+// positions checked with the exact orientation predicate: by L-BFGS preconditioned with the Laplacian in the
+// metric of the starting map (engine/detail/uv_descent.h), then, for MIPS on
 // maps of up to kNewtonMaxFaces triangles, by projected Newton steps from where it stopped.
 //
 // What moves: the interior vertices. The boundary is pinned exactly. Inserted vertices, and the original

@@ -236,10 +236,72 @@ struct UvDescent::Impl {
     }
     laplacian.resize(n, n);
     laplacian.setFromTriplets(entries.begin(), entries.end());
+    laplacian.makeCompressed();
+    rest_values.assign(laplacian.valuePtr(), laplacian.valuePtr() + laplacian.nonZeros());
     laplacian_factor.cholmod().print = 0;
     use_single_threaded_solvers();
     laplacian_factor.compute(laplacian);
     factored = laplacian_factor.info() == Eigen::Success;
+  }
+
+  // ---- the preconditioner in the metric of the current map (mips, symmetric Dirichlet) ----
+  // The rest Laplacian is the Hessian of the Dirichlet energy at the rest shapes. Far from them it is badly
+  // scaled: mips is scale-invariant, so its Hessian on a triangle scales as 1 / det J (the area ratio), and a
+  // map onto a stretched or crowded target (exp_strip, power_map) has area ratios over orders of magnitude.
+  // Reweighted, each triangle's term by the Hessian of its energy with det J frozen (mips |J|^2 / det J:
+  // 1 / det J; symmetric Dirichlet |J|^2 (1 + 1 / det^2): (1 + 1 / det^2) / 2, both 1 at J = I): still a
+  // Laplacian with positive weights, the same pattern, a numeric refactorization only.
+  std::vector<int> laplacian_slot;  // 6 per active face: corner pairs (i, j), j <= i, in the lower triangle
+  std::vector<double> rest_values;  // the rest Laplacian's values, for harmonic()
+  bool reweighted = false;
+
+  void build_laplacian_slots() {
+    auto slot_of = [&](int row, int col) {
+      const int* begin = laplacian.innerIndexPtr() + laplacian.outerIndexPtr()[col];
+      const int* end = laplacian.innerIndexPtr() + laplacian.outerIndexPtr()[col + 1];
+      return static_cast<int>(std::lower_bound(begin, end, row) - laplacian.innerIndexPtr());
+    };
+    laplacian_slot.assign(active.size() * 6, -1);
+    for (std::size_t k = 0; k < active.size(); ++k) {
+      int t = 0;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j <= i; ++j, ++t) {
+          const int r = index[faces[active[k]][i]], c = index[faces[active[k]][j]];
+          if (r >= 0 && c >= 0) laplacian_slot[6 * k + t] = slot_of(std::max(r, c), std::min(r, c));
+        }
+    }
+  }
+
+  void reweight_laplacian(const std::vector<Point2>& uv, UvEnergy energy) {
+    if (!factored || free_vertex.empty()) return;
+    if (laplacian_slot.empty()) build_laplacian_slots();
+    double* values = laplacian.valuePtr();
+    std::fill(values, values + laplacian.nonZeros(), 0.0);
+    for (std::size_t k = 0; k < active.size(); ++k) {
+      const int f = active[k];
+      const M2& B = rest_inverse[f];
+      const double det = mul(edges(uv, f), B).det();
+      double c = energy == UvEnergy::mips ? 1 / det : 0.5 * (1 + 1 / (det * det));
+      if (!(c > 0 && std::isfinite(c))) c = 1;
+      const double g[3][2] = {{-(B.a + B.c), -(B.b + B.d)}, {B.a, B.b}, {B.c, B.d}};
+      int t = 0;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j <= i; ++j, ++t)
+          if (const int slot = laplacian_slot[6 * k + static_cast<std::size_t>(t)]; slot >= 0)
+            values[slot] += weight[f] * c * (g[i][0] * g[j][0] + g[i][1] * g[j][1]);
+    }
+    use_single_threaded_solvers();
+    laplacian_factor.factorize(laplacian);
+    reweighted = true;
+    if (laplacian_factor.info() != Eigen::Success) restore_rest_laplacian();
+  }
+
+  void restore_rest_laplacian() {
+    std::copy(rest_values.begin(), rest_values.end(), laplacian.valuePtr());
+    use_single_threaded_solvers();
+    laplacian_factor.factorize(laplacian);
+    factored = laplacian_factor.info() == Eigen::Success;
+    reweighted = false;
   }
 
   Vec2s precondition(const Vec2s& g) const {
@@ -429,9 +491,10 @@ UvDescent::UvDescent(const std::vector<Point3>& vertices, const std::vector<Tria
     : impl_(std::make_unique<Impl>(vertices, faces, pinned, uv_area)) {}
 UvDescent::~UvDescent() = default;
 
-void UvDescent::harmonic(std::vector<Point2>& uv) const {
-  const Impl& m = *impl_;
+void UvDescent::harmonic(std::vector<Point2>& uv) {
+  Impl& m = *impl_;
   const int n = static_cast<int>(m.free_vertex.size());
+  if (m.reweighted) m.restore_rest_laplacian();
   if (n == 0 || !m.factored) return;
   // The Dirichlet energy sum_t A_t |J_t|^2 is quadratic with Hessian 2 L: one Newton step from any uv is its
   // minimizer. Its gradient is 2 sum_t A_t J_t B_t^T scattered to the corners.
@@ -478,6 +541,10 @@ DescentOutcome UvDescent::minimize(std::vector<Point2>& uv, const DescentSetting
   const int n = static_cast<int>(m.free_vertex.size());
   // L-BFGS memory (Nocedal & Wright Alg. 7.4), vectors as n x 2 blocks.
   constexpr std::size_t kMemory = 8;
+  // The preconditioner in the metric of the starting map (once: refreshing it every 5 or 10 steps cost more
+  // time for the same mean K and a worse max K on bench_quality).
+  if (flip_free) m.reweight_laplacian(uv, s.energy);
+  else if (m.reweighted) m.restore_rest_laplacian();  // the untangle energy's curvature is the rest one's
   std::deque<Vec2s> S, Y;
   std::deque<double> rho;
   double gamma = 0.5;  // H0 = gamma L^-1; 0.5: mips and the untangle energy are about 2 |J|^2 near J = I
