@@ -23,6 +23,14 @@ using Clock = std::chrono::steady_clock;
 using SpMat = Eigen::SparseMatrix<double>;
 using Vec2s = Eigen::MatrixX2d;  // one row per free vertex: (u, v)
 
+// Index into m.valuePtr() of the stored entry (row, col) of a compressed column-major matrix whose pattern has
+// it: lets a per-face loop add its terms into a fixed pattern without a search at every step.
+int value_slot(const SpMat& m, int row, int col) {
+  const int* begin = m.innerIndexPtr() + m.outerIndexPtr()[col];
+  const int* end = m.innerIndexPtr() + m.outerIndexPtr()[col + 1];
+  return static_cast<int>(std::lower_bound(begin, end, row) - m.innerIndexPtr());
+}
+
 // A 2 x 2 matrix [[a, b], [c, d]].
 struct M2 {
   double a = 0, b = 0, c = 0, d = 0;
@@ -256,18 +264,13 @@ struct UvDescent::Impl {
   bool reweighted = false;
 
   void build_laplacian_slots() {
-    auto slot_of = [&](int row, int col) {
-      const int* begin = laplacian.innerIndexPtr() + laplacian.outerIndexPtr()[col];
-      const int* end = laplacian.innerIndexPtr() + laplacian.outerIndexPtr()[col + 1];
-      return static_cast<int>(std::lower_bound(begin, end, row) - laplacian.innerIndexPtr());
-    };
     laplacian_slot.assign(active.size() * 6, -1);
     for (std::size_t k = 0; k < active.size(); ++k) {
       int t = 0;
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j <= i; ++j, ++t) {
           const int r = index[faces[active[k]][i]], c = index[faces[active[k]][j]];
-          if (r >= 0 && c >= 0) laplacian_slot[6 * k + t] = slot_of(std::max(r, c), std::min(r, c));
+          if (r >= 0 && c >= 0) laplacian_slot[6 * k + t] = value_slot(laplacian, std::max(r, c), std::min(r, c));
         }
     }
   }
@@ -343,22 +346,17 @@ struct UvDescent::Impl {
     hessian.resize(n, n);
     hessian.setFromTriplets(entries.begin(), entries.end());
     hessian.makeCompressed();
-    auto slot_of = [&](int row, int col) {
-      const int* begin = hessian.innerIndexPtr() + hessian.outerIndexPtr()[col];
-      const int* end = hessian.innerIndexPtr() + hessian.outerIndexPtr()[col + 1];
-      return static_cast<int>(std::lower_bound(begin, end, row) - hessian.innerIndexPtr());
-    };
     hessian_slot.assign(active.size() * 21, -1);
     for (std::size_t k = 0; k < active.size(); ++k) {
       int t = 0;
       for (int a = 0; a < 6; ++a)
         for (int b = 0; b <= a; ++b, ++t) {
           const int ra = dof(active[k], a), rb = dof(active[k], b);
-          if (ra >= 0 && rb >= 0) hessian_slot[21 * k + t] = slot_of(std::max(ra, rb), std::min(ra, rb));
+          if (ra >= 0 && rb >= 0) hessian_slot[21 * k + t] = value_slot(hessian, std::max(ra, rb), std::min(ra, rb));
         }
     }
     hessian_diagonal.resize(static_cast<std::size_t>(n));
-    for (int r = 0; r < n; ++r) hessian_diagonal[static_cast<std::size_t>(r)] = slot_of(r, r);
+    for (int r = 0; r < n; ++r) hessian_diagonal[static_cast<std::size_t>(r)] = value_slot(hessian, r, r);
   }
 
   // p = -H^-1 g with H the sum of the faces' projected mips Hessians (+ a tiny multiple of the identity when
