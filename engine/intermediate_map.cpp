@@ -152,16 +152,21 @@ struct System {
 
 // Interior block and right-hand side of the vertex_count x vertex_count operator L (rows of boundary
 // vertices are ignored). uv holds the boundary positions.
-// The matrix from its triplets, and the right-hand side (accumulated in long double) rounded once.
-void finish_system(System& s, const std::vector<Triplet>& trip, int m) {
-  s.A.resize(m, m);
-  s.A.setFromTriplets(trip.begin(), trip.end());
-  s.A.makeCompressed();
+// The right-hand side (accumulated in long double) rounded once.
+void round_rhs(System& s, int m) {
   s.b.resize(m, 2);
   for (int i = 0; i < m; ++i) {
     s.b(i, 0) = static_cast<double>(s.bx[static_cast<std::size_t>(i)]);
     s.b(i, 1) = static_cast<double>(s.by[static_cast<std::size_t>(i)]);
   }
+}
+
+// The matrix from its triplets, and the right-hand side rounded.
+void finish_system(System& s, const std::vector<Triplet>& trip, int m) {
+  s.A.resize(m, m);
+  s.A.setFromTriplets(trip.begin(), trip.end());
+  s.A.makeCompressed();
+  round_rhs(s, m);
 }
 
 System extract(const SpMat& L, const Layout& lay, const std::vector<Point2>& uv) {
@@ -193,15 +198,16 @@ System extract(const SpMat& L, const Layout& lay, const std::vector<Point2>& uv)
 // vertex_count x vertex_count matrix, no triplet list): weight(f, k) is face f's contribution to the edge
 // opposite its corner k. Same operator as extract(laplacian_from_...(...)), summed in a different order.
 // The pattern is built first (each interior column's interior neighbours and itself, sorted), then the values
-// are added into it in face order, which is the order setFromTriplets would sum them in: the same bits, with
-// a fifth of the memory (at 1M triangles the triplets alone were 100 MB of freshly faulted pages).
+// are added into it in face order, which is the order setFromTriplets would sum them in: the same bits, in
+// a quarter of the memory (at 1M triangles the triplets alone were 100 MB of freshly faulted pages).
 template <class Weight>
 System assemble_symmetric(const Layout& lay, const std::vector<Triangle>& faces, const std::vector<Point2>& uv,
                           Weight weight) {
   const int m = static_cast<int>(lay.interior.size());
   auto row_of = [&](int v) { return lay.row[static_cast<std::size_t>(v)]; };
-  auto edge_rows = [&](const Triangle& t, int k) {
-    return std::pair{row_of(t[static_cast<std::size_t>((k + 1) % 3)]), row_of(t[static_cast<std::size_t>((k + 2) % 3)])};
+  auto edge_rows = [&](const Triangle& t, int k) {  // the rows of the edge opposite corner k (-1: boundary)
+    return std::pair{row_of(t[static_cast<std::size_t>((k + 1) % 3)]),
+                     row_of(t[static_cast<std::size_t>((k + 2) % 3)])};
   };
   // Pattern: column c holds c and every interior ri with an edge (ri, c); counted, filled, sorted, deduplicated.
   std::vector<int> start(static_cast<std::size_t>(m) + 1, 0);
@@ -276,11 +282,7 @@ System assemble_symmetric(const Layout& lay, const std::vector<Triangle>& faces,
     }
   }
   for (int i = 0; i < m; ++i) value(i, i) += diag[static_cast<std::size_t>(i)];
-  s.b.resize(m, 2);
-  for (int i = 0; i < m; ++i) {
-    s.b(i, 0) = static_cast<double>(s.bx[static_cast<std::size_t>(i)]);
-    s.b(i, 1) = static_cast<double>(s.by[static_cast<std::size_t>(i)]);
-  }
+  round_rhs(s, m);
   return s;
 }
 
