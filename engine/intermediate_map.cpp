@@ -150,8 +150,6 @@ struct System {
   Rhs b;                          // the same rounded to double
 };
 
-// Interior block and right-hand side of the vertex_count x vertex_count operator L (rows of boundary
-// vertices are ignored). uv holds the boundary positions.
 // The right-hand side (accumulated in long double) rounded once.
 void round_rhs(System& s, int m) {
   s.b.resize(m, 2);
@@ -169,6 +167,8 @@ void finish_system(System& s, const std::vector<Triplet>& trip, int m) {
   round_rhs(s, m);
 }
 
+// Interior block and right-hand side of the vertex_count x vertex_count operator L (rows of boundary
+// vertices are ignored). uv holds the boundary positions.
 System extract(const SpMat& L, const Layout& lay, const std::vector<Point2>& uv) {
   const int m = static_cast<int>(lay.interior.size());
   System s;

@@ -45,6 +45,19 @@ inline M2 mul_bt(const M2& x, const M2& y) {  // x * y^T
   return {x.a * y.a + x.b * y.b, x.a * y.c + x.b * y.d, x.c * y.a + x.d * y.b, x.c * y.c + x.d * y.d};
 }
 
+// The rows of a triangle's gradient operator G: d J / d u_k for its corners k = 0, 1, 2, with B the inverse
+// of its rest edge matrix (J = [u1 - u0, u2 - u0] B).
+using CornerGradients = std::array<std::array<double, 2>, 3>;
+inline CornerGradients corner_gradients(const M2& B) {
+  return {{{-(B.a + B.c), -(B.b + B.d)}, {B.a, B.b}, {B.c, B.d}}};
+}
+// Entry (i, j) of a triangle's Dirichlet stiffness A G G^T.
+inline double stiffness(double area, const CornerGradients& g, int i, int j) {
+  const auto& a = g[static_cast<std::size_t>(i)];
+  const auto& b = g[static_cast<std::size_t>(j)];
+  return area * (a[0] * b[0] + a[1] * b[1]);
+}
+
 // Energy of one Jacobian and its gradient dE/dJ (when grad is not null).
 double jacobian_energy(const M2& J, const DescentSettings& s, M2* grad) {
   const double det = J.det(), n2 = J.norm2();
@@ -230,15 +243,14 @@ struct UvDescent::Impl {
     entries.reserve(active.size() * 9);
     for (int f : active) {
       const M2& B = rest_inverse[f];
-      // Rows of G: d J / d u_k for corners 0, 1, 2: u1 - u0 and u2 - u0 columns times B.
-      const double g[3][2] = {{-(B.a + B.c), -(B.b + B.d)}, {B.a, B.b}, {B.c, B.d}};
+      const CornerGradients g = corner_gradients(B);
       for (int i = 0; i < 3; ++i) {
         const int r = index[faces[f][i]];
         if (r < 0) continue;
         for (int j = 0; j < 3; ++j) {
           const int c = index[faces[f][j]];
           if (c < 0 || c > r) continue;  // lower triangle
-          entries.emplace_back(r, c, weight[f] * (g[i][0] * g[j][0] + g[i][1] * g[j][1]));
+          entries.emplace_back(r, c, stiffness(weight[f], g, i, j));
         }
       }
     }
@@ -286,12 +298,12 @@ struct UvDescent::Impl {
       const double det = mul(edges(uv, f), B).det();
       double c = energy == UvEnergy::mips ? 1 / det : 0.5 * (1 + 1 / (det * det));
       if (!(c > 0 && std::isfinite(c))) c = 1;
-      const double g[3][2] = {{-(B.a + B.c), -(B.b + B.d)}, {B.a, B.b}, {B.c, B.d}};
+      const CornerGradients g = corner_gradients(B);
       int t = 0;
       for (int i = 0; i < 3; ++i)
         for (int j = 0; j <= i; ++j, ++t)
           if (const int slot = laplacian_slot[6 * k + static_cast<std::size_t>(t)]; slot >= 0)
-            values[slot] += weight[f] * c * (g[i][0] * g[j][0] + g[i][1] * g[j][1]);
+            values[slot] += stiffness(weight[f] * c, g, i, j);
     }
     use_single_threaded_solvers();
     laplacian_factor.factorize(laplacian);
@@ -371,7 +383,7 @@ struct UvDescent::Impl {
       const M2 J = mul(edges(uv, f), B);
       const std::array<double, 16> hj = projected_mips_hessian(J.a, J.b, J.c, J.d);
       // dJ / d(u0, v0, u1, v1, u2, v2): J's row 0 from the u's, row 1 from the v's, columns through B.
-      const double gk[3][2] = {{-(B.a + B.c), -(B.b + B.d)}, {B.a, B.b}, {B.c, B.d}};
+      const CornerGradients gk = corner_gradients(B);
       double M[4][6] = {};
       for (int c = 0; c < 3; ++c) {
         M[0][2 * c] = gk[c][0], M[1][2 * c] = gk[c][1];
