@@ -55,7 +55,8 @@ struct ExtremalReport {
   // h_s->i (engine/teichmuller.h)
   double k = 0;                     // |mu| of the chosen iterate's coefficient (0: the harmonic start)
   int iterations = 0, chosen_iteration = 0, folded_iterates = 0;
-  double harmonic_max_dilatation = 1, max_dilatation = 1;  // max K of h_s->i: harmonic start, answer
+  // max K of h_s->i over the faces with a corner off the boundary: harmonic start, answer
+  double harmonic_max_dilatation = 1, max_dilatation = 1;
   // The refined map's max K lowered by local minimax moves (engine/extremal_relax.h), in place of optimize.
   ExtremalRelaxation relaxation;
 };

@@ -9,6 +9,7 @@
 #include <Eigen/CholmodSupport>
 
 #include "engine/error.h"
+#include "engine/extremal_relax.h"
 #include "engine/flip_check.h"
 
 namespace lipmap {
@@ -174,10 +175,15 @@ TeichmullerMap teichmuller_map(const DiskMapInput& input, const MeshTopology& to
                          uv[static_cast<std::size_t>(faces[f][2])]);
     return mu;
   };
+  // Faces with three boundary corners have the same image in every map with this boundary, so they cannot
+  // tell two iterates apart: where one of them is the worst face (often, next to a boundary corner), a max
+  // over all faces would tie every iterate with the harmonic start and always keep the start.
+  std::vector<char> on_loop(p.size(), 0);
+  for (int v : *input.boundary_loop) on_loop[static_cast<std::size_t>(v)] = 1;
   auto max_dilatation = [&](const std::vector<Complex>& mu) {
     double m = 1;
     for (std::size_t f = 0; f < nf; ++f)
-      if (frames[f].ok) m = std::max(m, dilatation(mu[f]));
+      if (frames[f].ok && !pinned_by_boundary(faces[f], on_loop)) m = std::max(m, dilatation(mu[f]));
     return m;
   };
   std::vector<Complex> mu = coefficients(out.map.uv);

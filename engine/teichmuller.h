@@ -16,11 +16,12 @@
 //      factorization per step on a pattern analysed once, one two-column solve;
 //   5. repeat from 2 a fixed number of times or until k settles.
 // Every iterate is checked with the exact orientation predicate; the answer is the flip-free iterate with
-// the smallest max K (the harmonic start included: so never above the start's), the quantity a Teichmuller
-// map minimizes. (The last flip-free iterate was tried first: on meshes where later iterates fold, an early
-// one can have a nearly flat triangle and a far larger max K than the start.) The paper's guarantee needs only a bijective h_s->i; the Teichmuller
-// property is what lowers the distortion of the composed map (h_t->i is conformal, so f = h_t->i^-1 o
-// h_s->i has h_s->i's dilatation).
+// the smallest max K over the faces with a corner off the boundary (the harmonic start included: so never
+// above the start's), the quantity a Teichmuller map minimizes. (The last flip-free iterate was tried first:
+// on meshes where later iterates fold, an early one can have a nearly flat triangle and a far larger max K
+// than the start.) The paper's guarantee needs only a bijective h_s->i; the Teichmuller property is what
+// lowers the distortion of the composed map (h_t->i is conformal, so f = h_t->i^-1 o h_s->i has h_s->i's
+// dilatation).
 #pragma once
 
 #include <vector>
@@ -46,7 +47,9 @@ struct TeichmullerMap {
   int iterations = 0;           // Beltrami solves done
   int chosen_iteration = 0;     // 0: the harmonic start; i: the i-th Beltrami solve
   int folded_iterates = 0;      // Beltrami solves whose map had a non-positive triangle (never chosen)
-  double harmonic_max_dilatation = 1, max_dilatation = 1;  // max K over faces of the start and of the answer
+  // max K of the start and of the answer over the faces with a corner off the boundary (the others are the same
+  // in every map with this boundary: pinned_by_boundary, engine/extremal_relax.h)
+  double harmonic_max_dilatation = 1, max_dilatation = 1;
   double ms = 0;
 };
 

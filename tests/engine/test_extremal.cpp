@@ -336,6 +336,47 @@ TEST(ExtremalTeichmuller, AnAffineBoundaryGivesTheAffineMapInThePlaneAndTiltedIn
   }
 }
 
+TEST(ExtremalTeichmuller, AFaceWithThreeBoundaryCornersDoesNotBlockTheChoiceOfIterate) {
+  // A flat grid onto a circle (boundary vertices evenly spaced): each corner of the square opens to a straight
+  // angle, so the faces with three boundary corners at the square's corners become nearly flat and have the
+  // largest K of every map with this boundary. Such a face is the same in every iterate, so it must not decide
+  // which iterate is kept: the kept one has the least max K over the other faces, below the harmonic start's.
+  const Grid g = flat_square(12);
+  const std::size_t n = g.loop.size();
+  std::vector<Point2> boundary;
+  for (std::size_t k = 0; k < n; ++k) boundary.push_back({std::cos(2 * kPi * k / n), std::sin(2 * kPi * k / n)});
+  std::vector<char> on_loop(g.vertices.size(), 0);
+  for (int v : g.loop) on_loop[v] = 1;
+  int pinned = 0;
+  for (const Triangle& t : g.faces) pinned += on_loop[t[0]] && on_loop[t[1]] && on_loop[t[2]];
+  ASSERT_GT(pinned, 0) << "the grid has no face with three boundary corners";
+
+  const MeshTopology topology(static_cast<int>(g.vertices.size()), g.faces);
+  DiskMapInput in{&g.vertices, &g.faces, &g.loop};
+  in.boundary_positions = &boundary;
+  const TeichmullerMap t = teichmuller_map(in, topology);
+  ASSERT_EQ(t.map.flipped, 0);
+  // Max K over the faces with a corner off the boundary, and over the pinned faces, by this file's own K.
+  auto split_max = [&](const std::vector<Point2>& uv) {
+    std::pair<double, double> m{1, 1};  // movable, pinned
+    for (const Triangle& f : g.faces) {
+      const double k = face_k(g.vertices[f[0]], g.vertices[f[1]], g.vertices[f[2]], uv[f[0]], uv[f[1]], uv[f[2]]);
+      double& slot = on_loop[f[0]] && on_loop[f[1]] && on_loop[f[2]] ? m.second : m.first;
+      slot = std::max(slot, k);
+    }
+    return m;
+  };
+  const DiskMap start = map_to_disk(in, MapMethod::harmonic);
+  const auto [start_movable, start_pinned] = split_max(start.uv);
+  ASSERT_GT(start_pinned, start_movable) << "a pinned face should be the worst face of the harmonic start";
+  const auto [movable, pinned_max] = split_max(t.map.uv);
+  EXPECT_NEAR(pinned_max, start_pinned, 1e-9 * start_pinned) << "pinned faces cannot change";
+  EXPECT_GE(t.chosen_iteration, 1);
+  EXPECT_LT(movable, start_movable);
+  EXPECT_NEAR(t.max_dilatation, movable, 1e-6 * movable);
+  EXPECT_NEAR(t.harmonic_max_dilatation, start_movable, 1e-6 * start_movable);
+}
+
 // ---- ExtremalPipeline -------------------------------------------------------------------------------------
 
 ParametrizeResult run(const RawMesh& mesh, const std::vector<Point2>& positions, MapMethod method,
