@@ -35,6 +35,7 @@
 #include "engine/cancel.h"
 #include "engine/error.h"
 #include "engine/flip_check.h"
+#include "engine/extremal_relax.h"
 #include "engine/mesh_io.h"
 #include "engine/pipeline.h"
 #include "engine/quality.h"
@@ -78,6 +79,10 @@ struct Row {
   int seed = 0;
   bool cert_on_source = false;
   double cert_mean_k = -1, mean_k = -1, max_k = -1, mean_k_before_opt = -1;
+  // max K over the answer's faces with three boundary corners (-1: none): their uv is the polygon's, so no
+  // vertex move changes them, and splitting their chords would insert points the contract calls removable
+  // (docs/contract.md, point 6). A row whose max K is one of these shows why no allowed map does better.
+  double pinned_max_k = -1;
   long long inserted = -1;
   int flips_before = -1, flips_after_untangle = -1, iterations = 0;
   bool untangled = false;
@@ -123,8 +128,8 @@ int main(int argc, char** argv) {
                        : (std::string("untangle on, optimize ") + lipmap::to_string(options.optimize) +
                           ", max_iterations " + std::to_string(options.max_iterations)).c_str(),
               seeds, seeds == 1 ? "" : "s", budget_s);
-  std::printf("\n%-26s %-10s %4s %4s %6s %6s %9s %9s %9s %6s %7s %7s %5s %9s %9s %9s %9s %9s\n", "model", "kind", "seed",
-              "cert", "c.ins", "ins", "c.meanK", "meanK", "maxK", "ratio", "flips", "left", "iter", "untangle",
+  std::printf("\n%-26s %-10s %4s %4s %6s %6s %9s %9s %9s %9s %6s %7s %7s %5s %9s %9s %9s %9s %9s\n", "model", "kind",
+              "seed", "cert", "c.ins", "ins", "c.meanK", "meanK", "maxK", "pinnedK", "ratio", "flips", "left", "iter", "untangle",
               "refine", "optimize", "total", "meanK0");
   std::vector<Row> rows;
   for (const lipmap::testmeshes::MeshEntry& entry : lipmap::testmeshes::disk_meshes()) {
@@ -170,6 +175,11 @@ int main(int argc, char** argv) {
           r.inserted = static_cast<long long>(res.map.inserted.size());
           r.mean_k = res.distortion.mean;
           r.max_k = res.distortion.max;
+          std::vector<char> on_loop(res.map.uv.size(), 0);
+          for (int v : res.boundary_loop) on_loop[static_cast<std::size_t>(v)] = 1;
+          for (std::size_t f = 0; f < res.map.faces.size() && f < res.distortion.per_face.size(); ++f)
+            if (lipmap::pinned_by_boundary(res.map.faces[f], on_loop))
+              r.pinned_max_k = std::max(r.pinned_max_k, res.distortion.per_face[f]);
           r.mean_k_before_opt = res.optimization.ran ? res.optimization.before.mean : res.distortion.mean;
           r.flips_before = res.relocation.flipped_before;
           r.flips_after_untangle = res.untangling.attempted ? res.untangling.flipped_after : res.relocation.flipped_after;
@@ -198,9 +208,11 @@ int main(int argc, char** argv) {
             std::snprintf(ratio, sizeof ratio, "%.2f", r.mean_k / r.cert_mean_k);
           }
           if ((r.inserted > 0 || r.untangled) && !r.untangle_outcome.empty()) std::printf("   untangle: %s\n", r.untangle_outcome.c_str());
-          std::printf("%-26s %-10s %4d %4s %6s %6lld %9s %9.3g %9.3g %6s %7d %7d %5d %9.1f %9.1f %9.1f %9.1f %9.3g\n",
+          char pinned_k[32] = "-";
+          if (r.pinned_max_k >= 0) std::snprintf(pinned_k, sizeof pinned_k, "%.3g", r.pinned_max_k);
+          std::printf("%-26s %-10s %4d %4s %6s %6lld %9s %9.3g %9.3g %9s %6s %7d %7d %5d %9.1f %9.1f %9.1f %9.1f %9.3g\n",
                       name.c_str(), r.kind.c_str(), seed, r.cert_on_source ? "src" : "poly", cert_ins, r.inserted, cert_k,
-                      r.mean_k, r.max_k, ratio, r.flips_before, r.flips_after_untangle, r.iterations, r.t_untangle,
+                      r.mean_k, r.max_k, pinned_k, ratio, r.flips_before, r.flips_after_untangle, r.iterations, r.t_untangle,
                       r.t_refine, r.t_optimize, r.total, r.mean_k_before_opt);
         }
         std::fflush(stdout);
@@ -260,10 +272,21 @@ int main(int argc, char** argv) {
     std::printf("summary: most inserted in any row %lld: %s %s seed %d\n", most_inserted->inserted,
                 most_inserted->mesh.c_str(), most_inserted->kind.c_str(), most_inserted->seed);
   if (largest_max_k)
-    std::printf("summary: largest max K %.4g: %s %s seed %d\n", largest_max_k->max_k, largest_max_k->mesh.c_str(),
-                largest_max_k->kind.c_str(), largest_max_k->seed);
+    std::printf("summary: largest max K %.4g: %s %s seed %d%s\n", largest_max_k->max_k, largest_max_k->mesh.c_str(),
+                largest_max_k->kind.c_str(), largest_max_k->seed,
+                largest_max_k->pinned_max_k == largest_max_k->max_k ? " (a face with three boundary corners)" : "");
+  // A row whose pinned faces alone have K > 1e4 has no map (without removable insertions) with max K <= 1e4.
+  int over_1e4 = 0, over_1e4_pinned = 0;
+  for (const Row& r : rows)
+    if (r.error.empty() && r.max_k > 1e4) {
+      ++over_1e4;
+      over_1e4_pinned += r.pinned_max_k > 1e4 ? 1 : 0;
+    }
+  std::printf("summary: max K > 1e4 in %d rows; in %d of them a face with three boundary corners (fixed by the "
+              "polygon) has K > 1e4 itself\n", over_1e4, over_1e4_pinned);
   std::printf("\ncolumns: cert = where the certificate lives (src: the source mesh, poly: the generator's own mesh); "
-              "c.ins / ins = inserted vertices; c.meanK / meanK = area-weighted mean K; ratio = meanK / c.meanK; "
+              "c.ins / ins = inserted vertices; c.meanK / meanK = area-weighted mean K; pinnedK = max K over the faces with "
+              "three boundary corners (fixed by the polygon; - if none); ratio = meanK / c.meanK; "
               "flips = composed map's non-positive faces; left = after untangling; iter = optimization steps; "
               "meanK0 = mean K before optimization\n");
   return 0;
