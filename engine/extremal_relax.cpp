@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "engine/detail/uv_descent.h"
 #include "engine/flip_check.h"
 #include "engine/mesh_topology.h"
 
@@ -206,6 +207,52 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
   for (std::size_t v = 0; v < nv; ++v) out.free_vertices += pinned[v] != 2;
   if (out.free_vertices == 0) return out;
   out.ran = true;
+
+  // The max K over the faces some vertex move can change (a corner that is not pinned by the boundary).
+  auto movable_max = [&]() {
+    double m = 1;
+    for (std::size_t f = 0; f < nf; ++f) {
+      const Triangle& t = map.faces[f];
+      if (pinned[static_cast<std::size_t>(t[0])] != 2 || pinned[static_cast<std::size_t>(t[1])] != 2 ||
+          pinned[static_cast<std::size_t>(t[2])] != 2)
+        m = std::max(m, k[f]);
+    }
+    return m;
+  };
+  // First a flip-free descent (engine/detail/uv_descent.h) on the sum over faces of ((K + 1/K) / 2)^p relative
+  // to the worst movable face's, p = 2, 4, 8, 16 (mips / 2 = (K + 1/K) / 2): a smooth stand-in for the largest K
+  // that moves every freely movable vertex (pinned 0) at once, where the compass search below moves one vertex
+  // at a time. It is kept only when it lowers the max K over the movable faces; the compass search then settles
+  // the worst faces level by level as before.
+  if (std::any_of(pinned.begin(), pinned.end(), [](char c) { return c == 0; })) {
+    std::vector<char> fixed(nv);
+    for (std::size_t v = 0; v < nv; ++v) fixed[v] = pinned[v] != 0;
+    double area = 0;
+    for (std::size_t i = 0; i < loop.size(); ++i) {
+      const Point2& a = map.uv[static_cast<std::size_t>(loop[i])];
+      const Point2& b = map.uv[static_cast<std::size_t>(loop[(i + 1) % loop.size()])];
+      area += 0.5 * (a.x * b.y - a.y * b.x);
+    }
+    const double before = movable_max();
+    const std::vector<Point2> start = map.uv;
+    detail::UvDescent descent(shape, map.faces, fixed, area);
+    detail::DescentSettings s;
+    s.energy = detail::UvEnergy::mips;
+    s.flip_free = true;
+    s.max_iterations = 100;
+    s.relative_tolerance = 1e-6;
+    s.power_base = 0.5 * (before + 1 / before);  // mips / 2 = (K + 1/K) / 2 of the worst movable face
+    s.cancel = cancel;
+    for (double p : {2.0, 4.0, 8.0, 16.0}) {
+      s.power = p;
+      descent.minimize(map.uv, s);
+    }
+    for (std::size_t f = 0; f < nf; ++f) k[f] = k_of(f);
+    if (!(movable_max() < before) || count_non_positive(map.uv, map.faces) > 0) {
+      map.uv = start;
+      for (std::size_t f = 0; f < nf; ++f) k[f] = k_of(f);
+    }
+  }
 
   // Frozen faces: the levels already settled (see below). A move may not raise a frozen face's K and must
   // lower the max K over the star's other faces.

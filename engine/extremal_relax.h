@@ -2,6 +2,12 @@
 // K = sigma1 / sigma2 for the fixed boundary, so the refined map of the extremal path is finished by lowering
 // max K directly rather than an average energy (MIPS would trade the worst triangles for the mean).
 //
+// First a flip-free descent (engine/detail/uv_descent.h: L-BFGS, every step bounded before a triangle turns
+// over and checked exactly) on the area-weighted sum of ((K + 1/K) / 2)^p relative to the worst movable face's,
+// for p = 2, 4, 8, 16: a smooth stand-in for max K that moves every freely movable vertex at once. It is kept
+// only when it lowers max K over the faces a move can change. bench_extremal (51 cases): median max K 18.3 ->
+// 11.4, median max K / mean K two rings in 1.70 -> 1.48, for 2.4x the time. Then:
+//
 // Local minimax relaxation: a free vertex v moves to lower max K over its star (the faces around v), by a
 // compass pattern search (8 directions, the step halved on failure); a move is kept only when the star's
 // max K strictly drops and every star face stays strictly positive (floating point, then the engine's exact
@@ -15,7 +21,7 @@
 // later move may raise them) and the next level down is treated, so the worst faces away from a stuck spot
 // (often next to the boundary) are lowered too. Capped by sweeps and about 2,000 face evaluations per face.
 //
-// Free vertices: every vertex but the boundary. An inserted vertex moves in uv only (its 3D point stays on its
+// Free vertices: every vertex but the boundary (the descent moves only those that move freely, below). An inserted vertex moves in uv only (its 3D point stays on its
 // edge, contract point 1). The refinement's minimality (contract point 6, paper 4 Fig. 11) is kept: whether an
 // inserted point is removable depends only on its two refined polygons without it, so an inserted point alone
 // on both source faces of its edge moves freely; a corner of a refined face, or an inserted point sharing a

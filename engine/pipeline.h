@@ -57,7 +57,8 @@ struct ExtremalReport {
   int iterations = 0, chosen_iteration = 0, folded_iterates = 0;
   // max K of h_s->i over the faces with a corner off the boundary: harmonic start, answer
   double harmonic_max_dilatation = 1, max_dilatation = 1;
-  // The refined map's max K lowered by local minimax moves (engine/extremal_relax.h), in place of optimize.
+  // The refined map's max K lowered by a p-norm descent and local minimax moves (engine/extremal_relax.h), in
+  // place of optimize.
   ExtremalRelaxation relaxation;
 };
 

@@ -65,11 +65,14 @@ double jacobian_energy(const M2& J, const DescentSettings& s, M2* grad) {
   switch (s.energy) {
     case UvEnergy::mips: {
       if (!(det > 0)) return kInf;
+      // power p, base b: (f / 2b)^p with f = mips, gradient p (f / 2b)^(p - 1) / 2b times f's.
+      const double f = n2 / det, b = 2 * s.power_base;
+      const double scale = s.power == 1 ? 1 : s.power / b * std::pow(f / b, s.power - 1);
       if (grad) {
-        const double k1 = 2 / det, k2 = n2 / (det * det);
+        const double k1 = scale * 2 / det, k2 = scale * n2 / (det * det);
         *grad = {k1 * J.a - k2 * C.a, k1 * J.b - k2 * C.b, k1 * J.c - k2 * C.c, k1 * J.d - k2 * C.d};
       }
-      return n2 / det;
+      return s.power == 1 ? f : std::pow(f / b, s.power);
     }
     case UvEnergy::symmetric_dirichlet: {  // |J|^2 + |J^-1|^2 = |J|^2 (1 + 1 / det^2) in 2D
       if (!(det > 0)) return kInf;
@@ -287,7 +290,7 @@ struct UvDescent::Impl {
     }
   }
 
-  void reweight_laplacian(const std::vector<Point2>& uv, UvEnergy energy) {
+  void reweight_laplacian(const std::vector<Point2>& uv, UvEnergy energy, double power = 1, double base = 1) {
     if (!factored || free_vertex.empty()) return;
     if (laplacian_slot.empty()) build_laplacian_slots();
     double* values = laplacian.valuePtr();
@@ -297,6 +300,10 @@ struct UvDescent::Impl {
       const M2& B = rest_inverse[f];
       const double det = mul(edges(uv, f), B).det();
       double c = energy == UvEnergy::mips ? 1 / det : 0.5 * (1 + 1 / (det * det));
+      if (energy == UvEnergy::mips && power != 1) {
+        const M2 J = mul(edges(uv, f), B);
+        c *= power / (2 * base) * std::pow(J.norm2() / det / (2 * base), power - 1);
+      }
       if (!(c > 0 && std::isfinite(c))) c = 1;
       const CornerGradients g = corner_gradients(B);
       int t = 0;
@@ -547,13 +554,13 @@ DescentOutcome UvDescent::minimize(std::vector<Point2>& uv, const DescentSetting
   out.energy_before = out.energy_after = energy(uv, s);
   if (m.free_vertex.empty() || !std::isfinite(out.energy_before) || s.max_iterations <= 0) return out;
   const bool flip_free = s.flip_free && s.energy != UvEnergy::untangle;
-  bool newton = s.newton && s.energy == UvEnergy::mips;
+  bool newton = s.newton && s.energy == UvEnergy::mips && s.power == 1;
   const int n = static_cast<int>(m.free_vertex.size());
   // L-BFGS memory (Nocedal & Wright Alg. 7.4), vectors as n x 2 blocks.
   constexpr std::size_t kMemory = 8;
   // The preconditioner in the metric of the starting map (once: refreshing it every 5 or 10 steps cost more
   // time for the same mean K and a worse max K on bench_quality).
-  if (flip_free) m.reweight_laplacian(uv, s.energy);
+  if (flip_free) m.reweight_laplacian(uv, s.energy, s.power, s.power_base);
   else if (m.reweighted) m.restore_rest_laplacian();  // the untangle energy's curvature is the rest one's
   std::deque<Vec2s> S, Y;
   std::deque<double> rho;

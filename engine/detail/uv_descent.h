@@ -17,6 +17,7 @@
 // Energies (per triangle, weighted by rest area):
 //   mips                 tr(J^T J) / det J = K + 1/K with K = sigma1 / sigma2 (Hormann & Greiner 2000): lowers
 //                        exactly the conformal distortion the quality stage reports; +inf when det J <= 0.
+//                        With DescentSettings::power p > 1: (mips / (2 base))^p, a p-norm of K (method extremal).
 //   symmetric_dirichlet  |J|^2 + |J^-1|^2 (Smith & Schaefer 2015, Rabinovich et al. 2017): conformal and
 //                        area distortion together; +inf when det J <= 0.
 //   untangle             Garanzha et al. 2021 ("Foldover-free maps in 50 lines of code"), 2D:
@@ -54,6 +55,11 @@ struct DescentSettings {
   // semi-definite matrices, factorized at every step) instead of L-BFGS; after a Newton step that the line
   // search cannot accept, L-BFGS goes on from there.
   bool newton = false;
+  // mips only: minimize the sum of (mips / (2 power_base))^power instead (power >= 1; 1: mips itself). A
+  // growing power weighs the worst triangles more and more, a smooth stand-in for the largest K (method
+  // extremal); power_base (the starting map's worst mips / 2, say) keeps the terms from overflowing.
+  double power = 1;
+  double power_base = 1;
   int max_iterations = 100;
   double relative_tolerance = 1e-7;  // stop when one iteration lowers the energy by less than this fraction
   // untangle: stop as soon as every face is strictly positive (exact predicate). The untangler's job ends
