@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 
+#include "engine/detail/piece_mesher.h"
 #include "engine/detail/uv_descent.h"
 #include "engine/flip_check.h"
 #include "engine/mesh_topology.h"
@@ -208,17 +209,21 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
   if (out.free_vertices == 0) return out;
   out.ran = true;
 
-  // The max K over the faces some vertex move can change (a corner that is not pinned by the boundary).
-  auto movable_max = [&]() {
+  // Frozen faces: the levels already settled (see below). A move may not raise a frozen face's K and must
+  // lower the max K over the star's other faces.
+  std::vector<char> frozen(nf, 0);
+  // The largest K over the faces that can still change (a free corner) and are not frozen.
+  auto level = [&]() {
     double m = 1;
     for (std::size_t f = 0; f < nf; ++f) {
       const Triangle& t = map.faces[f];
-      if (pinned[static_cast<std::size_t>(t[0])] != 2 || pinned[static_cast<std::size_t>(t[1])] != 2 ||
-          pinned[static_cast<std::size_t>(t[2])] != 2)
+      if (!frozen[f] && (pinned[static_cast<std::size_t>(t[0])] != 2 || pinned[static_cast<std::size_t>(t[1])] != 2 ||
+                         pinned[static_cast<std::size_t>(t[2])] != 2))
         m = std::max(m, k[f]);
     }
     return m;
   };
+
   // First a flip-free descent (engine/detail/uv_descent.h) on the sum over faces of ((K + 1/K) / 2)^p relative
   // to the worst movable face's, p = 2, 4, 8, 16 (mips / 2 = (K + 1/K) / 2): a smooth stand-in for the largest K
   // that moves every freely movable vertex (pinned 0) at once, where the compass search below moves one vertex
@@ -227,15 +232,12 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
   if (std::any_of(pinned.begin(), pinned.end(), [](char c) { return c == 0; })) {
     std::vector<char> fixed(nv);
     for (std::size_t v = 0; v < nv; ++v) fixed[v] = pinned[v] != 0;
-    double area = 0;
-    for (std::size_t i = 0; i < loop.size(); ++i) {
-      const Point2& a = map.uv[static_cast<std::size_t>(loop[i])];
-      const Point2& b = map.uv[static_cast<std::size_t>(loop[(i + 1) % loop.size()])];
-      area += 0.5 * (a.x * b.y - a.y * b.x);
-    }
-    const double before = movable_max();
+    std::vector<Point2> polygon;
+    for (int v : loop) polygon.push_back(map.uv[static_cast<std::size_t>(v)]);
+    const double before = level();
     const std::vector<Point2> start = map.uv;
-    detail::UvDescent descent(shape, map.faces, fixed, area);
+    const std::vector<double> k_start = k;
+    detail::UvDescent descent(shape, map.faces, fixed, detail::signed_area(polygon));
     detail::DescentSettings s;
     s.energy = detail::UvEnergy::mips;
     s.flip_free = true;
@@ -248,15 +250,12 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
       descent.minimize(map.uv, s);
     }
     for (std::size_t f = 0; f < nf; ++f) k[f] = k_of(f);
-    if (!(movable_max() < before) || count_non_positive(map.uv, map.faces) > 0) {
+    if (!(level() < before) || count_non_positive(map.uv, map.faces) > 0) {
       map.uv = start;
-      for (std::size_t f = 0; f < nf; ++f) k[f] = k_of(f);
+      k = k_start;
     }
   }
 
-  // Frozen faces: the levels already settled (see below). A move may not raise a frozen face's K and must
-  // lower the max K over the star's other faces.
-  std::vector<char> frozen(nf, 0);
   std::vector<int> star;
   long long evals = 0;
   const long long eval_cap = std::min<long long>(2000LL * static_cast<long long>(nf), 100000000LL);
@@ -320,18 +319,6 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
     for (int f : star) k[static_cast<std::size_t>(f)] = k_of(static_cast<std::size_t>(f));
     return true;
   };
-  // The largest K over the faces that can still change (a free corner) and are not frozen.
-  auto level = [&]() {
-    double m = 1;
-    for (std::size_t f = 0; f < nf; ++f) {
-      const Triangle& t = map.faces[f];
-      if (!frozen[f] && (pinned[static_cast<std::size_t>(t[0])] != 2 || pinned[static_cast<std::size_t>(t[1])] != 2 ||
-                         pinned[static_cast<std::size_t>(t[2])] != 2))
-        m = std::max(m, k[f]);
-    }
-    return m;
-  };
-
   // Lexicographic minimax: sweeps lower the current level (the worst face that can change sets a threshold;
   // the free corners of every face within half of its excess over 1 are visited, worst star first). When a
   // sweep lowers the level by less than a relative 1e-3, the faces at the level are frozen and the next level
