@@ -379,8 +379,10 @@ struct UvDescent::Impl {
   }
 
   // p = -H^-1 g with H the sum of the faces' projected mips Hessians (+ a tiny multiple of the identity when
-  // H is only semi-definite). False when no factorization succeeds.
-  bool newton_direction(const std::vector<Point2>& uv, const Vec2s& g, Vec2s& p) {
+  // H is only semi-definite). With power p != 1, each face's term is (f / 2b)^p of f = mips, whose Hessian
+  // c1 H_f + c2 grad f grad f^T (c1, c2 > 0) is projected by projecting H_f: the rank-one term is already
+  // positive semi-definite. False when no factorization succeeds.
+  bool newton_direction(const std::vector<Point2>& uv, const Vec2s& g, Vec2s& p, double power, double base) {
     if (hessian_slot.empty() && !active.empty()) build_hessian_pattern();
     double* values = hessian.valuePtr();
     std::fill(values, values + hessian.nonZeros(), 0.0);
@@ -388,7 +390,17 @@ struct UvDescent::Impl {
       const int f = active[k];
       const M2& B = rest_inverse[f];
       const M2 J = mul(edges(uv, f), B);
-      const std::array<double, 16> hj = projected_mips_hessian(J.a, J.b, J.c, J.d);
+      std::array<double, 16> hj = projected_mips_hessian(J.a, J.b, J.c, J.d);
+      if (power != 1) {
+        const double det = J.det(), n2 = J.norm2(), b2 = 2 * base, f = n2 / det;
+        const double c1 = power / b2 * std::pow(f / b2, power - 1);
+        const double c2 = power * (power - 1) / (b2 * b2) * std::pow(f / b2, power - 2);
+        const M2 C = J.cof();
+        const double k1 = 2 / det, k2 = n2 / (det * det);
+        const std::array<double, 4> gf = {k1 * J.a - k2 * C.a, k1 * J.b - k2 * C.b, k1 * J.c - k2 * C.c, k1 * J.d - k2 * C.d};
+        for (std::size_t i = 0; i < 4; ++i)
+          for (std::size_t j = 0; j < 4; ++j) hj[4 * i + j] = c1 * hj[4 * i + j] + c2 * gf[i] * gf[j];
+      }
       // dJ / d(u0, v0, u1, v1, u2, v2): J's row 0 from the u's, row 1 from the v's, columns through B.
       const CornerGradients gk = corner_gradients(B);
       double M[4][6] = {};
@@ -554,7 +566,7 @@ DescentOutcome UvDescent::minimize(std::vector<Point2>& uv, const DescentSetting
   out.energy_before = out.energy_after = energy(uv, s);
   if (m.free_vertex.empty() || !std::isfinite(out.energy_before) || s.max_iterations <= 0) return out;
   const bool flip_free = s.flip_free && s.energy != UvEnergy::untangle;
-  bool newton = s.newton && s.energy == UvEnergy::mips && s.power == 1;
+  bool newton = s.newton && s.energy == UvEnergy::mips;
   const int n = static_cast<int>(m.free_vertex.size());
   // L-BFGS memory (Nocedal & Wright Alg. 7.4), vectors as n x 2 blocks.
   constexpr std::size_t kMemory = 8;
@@ -574,7 +586,7 @@ DescentOutcome UvDescent::minimize(std::vector<Point2>& uv, const DescentSetting
     check_cancel(s.cancel);
     if (Clock::now() >= s.deadline) break;
     double slope = 0;
-    const bool newton_step = newton && m.newton_direction(uv, g, p) && (slope = dot(g, p)) < 0;
+    const bool newton_step = newton && m.newton_direction(uv, g, p, s.power, s.power_base) && (slope = dot(g, p)) < 0;
     if (!newton_step) {
       // Two-loop recursion.
       Vec2s q = g;

@@ -51,9 +51,9 @@ struct DescentSettings {
   double epsilon = 0;        // untangle only: chi's regularization
   double theta = 1.0 / 128;  // untangle only: weight of the area term (Garanzha et al. 2021 use a small one)
   bool flip_free = true;     // mips / symmetric_dirichlet: every accepted step keeps every triangle positive
-  // mips only: projected Newton steps (the sum of the triangles' Hessians, each projected onto the positive
-  // semi-definite matrices, factorized at every step) instead of L-BFGS; after a Newton step that the line
-  // search cannot accept, L-BFGS goes on from there.
+  // mips only (any power): projected Newton steps (the sum of the triangles' Hessians, each projected onto the
+  // positive semi-definite matrices, factorized at every step) instead of L-BFGS; after a Newton step that the
+  // line search cannot accept, L-BFGS goes on from there.
   bool newton = false;
   // mips only: minimize the sum of (mips / (2 power_base))^power instead (power >= 1; 1: mips itself). A
   // growing power weighs the worst triangles more and more, a smooth stand-in for the largest K (method
