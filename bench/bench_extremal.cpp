@@ -6,11 +6,15 @@
 // start method extremal kept (teich: the Teichmuller map, harm: the harmonic method's map). h movK / e movK:
 // max K over the faces with a corner off the boundary; fixedK: max K over faces with three boundary corners
 // (the same in both maps, no vertex move changes it); a case whose worst face is such a face is noted.
+// starLB: a lower bound on max K two rings in for every locally injective map of the (refined) mesh, from the
+// angle sums of single vertex stars (star_bound below); where it exceeds 1.5 x the map's inner mean K, inner
+// max / mean <= 1.5 would take a map with a higher mean K.
 //
 //   bench_extremal [--reps N] [--mesh NAME]... [--budget-s S]
 //
 // Times are the median of N runs (default 1). Each run gets S seconds (default 60) through the CancelToken.
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -67,6 +71,7 @@ struct Stats {
   bool ok = false;
   std::string error;
   double ms = 0, max_k = 0, mean_k = 0, inner_ratio = 0, k = 0;
+  double star_lb = 1, star_lb_ratio = 1;  // star_bound's largest value two rings in, and over the inner mean K
   double fixed_max = 1, movable_max = 1;  // max K over faces with three boundary corners / the other faces
   std::string start;                      // extremal: the relaxed start kept
   int inserted = 0;
@@ -85,8 +90,41 @@ void fixed_and_movable(const lipmap::ParametrizeResult& r, Stats& s) {
   }
 }
 
-// max K / mean K over faces whose corners are all at least 2 edges from the boundary.
-double inner_ratio(const lipmap::ParametrizeResult& r) {
+// A lower bound on max K over the star of an interior vertex v, for every locally injective map of this mesh:
+// the star's angles at v must add up to 2 pi in the plane. An affine map of dilatation K takes the triangle
+// (0, 1, z) (v at 0, z in the upper half-plane) to one whose shape z' lies within hyperbolic distance log K of
+// z (the Teichmuller distance of triangles), a Euclidean disk of center x + i y cosh(log K) and radius
+// y sinh(log K); the angle at v, arg z', then ranges over arg(center) -+ asin(radius / |center|). The bound is
+// the least K for which the star's smallest angles add up to at most 2 pi and its largest to at least 2 pi.
+// (Necessary only: the star's faces must also agree on their shared edges.) A vertex whose 3D angle sum is far
+// from 2 pi (a cone) forces a K that no map of this mesh goes below, whatever the boundary.
+double star_bound(const std::vector<std::array<double, 2>>& shapes) {  // shapes: (|vb| / |va|, angle at v)
+  auto sums = [&](double r, double& lo, double& hi) {
+    lo = hi = 0;
+    for (const auto& [ratio, angle] : shapes) {
+      const double x = ratio * std::cos(angle), y = ratio * std::sin(angle);
+      const double cx = x, cy = y * std::cosh(r), rad = y * std::sinh(r), c = std::hypot(cx, cy);
+      const double mid = std::atan2(cy, cx), half = std::asin(std::min(1.0, rad / c));
+      lo += std::max(0.0, mid - half);
+      hi += std::min(M_PI, mid + half);
+    }
+  };
+  double lo = 0, hi = 0;
+  sums(0, lo, hi);
+  if (lo <= 2 * M_PI && hi >= 2 * M_PI) return 1;
+  double a = 0, b = 30;
+  for (int i = 0; i < 60; ++i) {
+    const double m = 0.5 * (a + b);
+    sums(m, lo, hi);
+    (lo <= 2 * M_PI && hi >= 2 * M_PI ? b : a) = m;
+  }
+  return std::exp(b);
+}
+
+// max K / mean K over faces whose corners are all at least 2 edges from the boundary; star_lb: the largest
+// star_bound over the vertices at least 3 edges from the boundary (their stars are such faces), and its ratio to
+// the map's mean K over those faces.
+double inner_ratio(const lipmap::ParametrizeResult& r, double* star_lb = nullptr, double* star_lb_ratio = nullptr) {
   const auto& faces = r.map.faces;
   const std::size_t nv = r.map.vertices.size();
   std::map<std::pair<int, int>, int> uses;
@@ -118,6 +156,26 @@ double inner_ratio(const lipmap::ParametrizeResult& r) {
     sum += w * k;
     area += w;
   }
+  if (star_lb) {
+    std::vector<std::vector<std::array<double, 2>>> star(nv);
+    for (const Triangle& t : faces)
+      for (int c = 0; c < 3; ++c) {
+        const int v = t[c], a = t[(c + 1) % 3], b = t[(c + 2) % 3];
+        if (dist[v] < 3) continue;
+        const Point3 &p = r.map.vertices[v], &q = r.map.vertices[a], &w = r.map.vertices[b];
+        const double e1[3] = {q.x - p.x, q.y - p.y, q.z - p.z}, e2[3] = {w.x - p.x, w.y - p.y, w.z - p.z};
+        const double l1 = std::sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+        const double l2 = std::sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]);
+        const double cr[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
+        const double angle = std::atan2(std::sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]),
+                                        e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2]);
+        if (l1 > 0 && l2 > 0 && angle > 0) star[v].push_back({l2 / l1, angle});
+      }
+    *star_lb = 1;
+    for (std::size_t v = 0; v < nv; ++v)
+      if (star[v].size() >= 3) *star_lb = std::max(*star_lb, star_bound(star[v]));
+    if (star_lb_ratio) *star_lb_ratio = area > 0 ? *star_lb / (sum / area) : 1;
+  }
   return area > 0 ? mx / (sum / area) : 1;
 }
 
@@ -139,7 +197,7 @@ Stats run(const lipmap::RawMesh& mesh, const std::vector<Point2>& positions, con
       times.push_back(r.timings.total);
       s.max_k = r.distortion.max;
       s.mean_k = r.distortion.mean;
-      s.inner_ratio = inner_ratio(r);
+      s.inner_ratio = inner_ratio(r, &s.star_lb, &s.star_lb_ratio);
       s.inserted = static_cast<int>(r.map.inserted.size());
       s.k = r.extremal.k;
       s.start = r.extremal.relaxation.start;
@@ -172,11 +230,11 @@ int main(int argc, char** argv) {
   }
   std::printf("bench_extremal: %d rep%s, optimize none; times in ms (median); inner = max K / mean K 2 rings in\n", reps,
               reps == 1 ? "" : "s");
-  std::printf("%-34s %9s %9s %8s %8s %7s %7s %7s %7s %6s %6s %5s %9s %9s %9s %s\n", "case", "harm ms", "extr ms",
-              "harm maxK", "extr maxK", "h meanK", "e meanK", "h inner", "e inner", "k", "ins", "start", "h movK",
+  std::printf("%-34s %9s %9s %8s %8s %7s %7s %7s %7s %7s %6s %6s %5s %9s %9s %9s %s\n", "case", "harm ms", "extr ms",
+              "harm maxK", "extr maxK", "h meanK", "e meanK", "h inner", "e inner", "starLB", "k", "ins", "start", "h movK",
               "e movK", "fixedK", "note");
   std::vector<double> time_ratio, h_inner, e_inner, h_max, e_max;
-  int cases = 0, lower_max = 0, failed = 0, fixed_worst = 0, lower_movable = 0, inner_ok = 0;
+  int cases = 0, lower_max = 0, failed = 0, fixed_worst = 0, lower_movable = 0, inner_ok = 0, star_forced = 0;
   std::vector<std::string> not_lower;
   auto row = [&](const std::string& name, const lipmap::RawMesh& mesh, const std::vector<Point2>& positions,
                  const std::optional<std::vector<int>>& rot) {
@@ -191,14 +249,15 @@ int main(int argc, char** argv) {
     // then the faces with a corner off the boundary are compared.
     const bool fixed = e.max_k >= h.max_k && h.fixed_max >= h.max_k && e.fixed_max >= e.max_k;
     const char* note = e.max_k < h.max_k ? "lower" : fixed ? "worst face fixed (3 boundary corners)" : "NOT LOWER";
-    std::printf("%-34s %9.1f %9.1f %8.3f %8.3f %7.3f %7.3f %7.3f %7.3f %6.3f %6d %5s %9.3f %9.3f %9.3f %s\n",
-                name.c_str(), h.ms, e.ms, h.max_k, e.max_k, h.mean_k, e.mean_k, h.inner_ratio, e.inner_ratio, e.k,
+    std::printf("%-34s %9.1f %9.1f %8.3f %8.3f %7.3f %7.3f %7.3f %7.3f %7.3f %6.3f %6d %5s %9.3f %9.3f %9.3f %s\n",
+                name.c_str(), h.ms, e.ms, h.max_k, e.max_k, h.mean_k, e.mean_k, h.inner_ratio, e.inner_ratio, e.star_lb, e.k,
                 e.inserted, e.start == "harmonic" ? "harm" : "teich", h.movable_max, e.movable_max, h.fixed_max, note);
     ++cases;
     lower_max += e.max_k < h.max_k;
     fixed_worst += e.max_k >= h.max_k && fixed;
     lower_movable += e.movable_max < h.movable_max;
     inner_ok += e.inner_ratio <= 1.5;
+    star_forced += e.inner_ratio > 1.5 && e.star_lb_ratio > 1.5;
     if (!(e.max_k < h.max_k) && !fixed) not_lower.push_back(name);
     time_ratio.push_back(e.ms / h.ms);
     h_inner.push_back(h.inner_ratio);
@@ -254,9 +313,10 @@ int main(int argc, char** argv) {
   std::printf("summary: %d cases (%d failed); max K lower than harmonic in %d, worst face fixed in both (3 boundary "
               "corners, same K) in %d, neither in %d; max K over faces with a corner off the boundary lower in %d; "
               "median time extremal / harmonic %.2f; median max K harmonic %.3f, extremal %.3f; median inner max/mean "
-              "harmonic %.3f, extremal %.3f; inner max/mean <= 1.5 in %d\n",
+              "harmonic %.3f, extremal %.3f; inner max/mean <= 1.5 in %d; of the others, a vertex's star forces K above 1.5 x "
+              "the inner mean (starLB) in %d\n",
               cases, failed, lower_max, fixed_worst, static_cast<int>(not_lower.size()), lower_movable,
-              median(time_ratio), median(h_max), median(e_max), median(h_inner), median(e_inner), inner_ok);
+              median(time_ratio), median(h_max), median(e_max), median(h_inner), median(e_inner), inner_ok, star_forced);
   for (const std::string& n : not_lower) std::printf("not lower: %s\n", n.c_str());
   return failed ? 1 : 0;
 }
