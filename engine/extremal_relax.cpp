@@ -232,7 +232,8 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
   // map first every vertex off the boundary, kept only when every inserted point is still needed afterwards
   // (contract point 6), else (and on an unrefined map) the freely movable ones (pinned 0). As p grows its
   // minimizers tend to a map whose K is as even as the mesh allows (a Teichmuller map's is constant), not only
-  // one whose worst face is low: the interior's spread of K is what method extremal is judged by besides max K. Projected Newton, since L-BFGS crawls at large p (bench_extremal:
+  // one whose worst face is low: the interior's spread of K is what method extremal is judged by besides max K.
+  // Projected Newton, since L-BFGS crawls at large p (bench_extremal:
   // L-BFGS to p = 16 left max K / mean K two rings in at 1.6-3.0 on camel_head and mannequin_devil onto c_shape
   // and weak_fan, Newton to p = 256 at 1.05-1.11). Each p is relative to the level it starts from, so that the
   // terms neither overflow nor all vanish. It is kept only when it lowers the max K over the movable faces; the
