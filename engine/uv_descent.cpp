@@ -58,6 +58,14 @@ inline double stiffness(double area, const CornerGradients& g, int i, int j) {
   return area * (a[0] * b[0] + a[1] * b[1]);
 }
 
+// scale times the gradient of mips = |J|^2 / det J with respect to J: scale (2 J / det J - |J|^2 cof(J) / det^2 J).
+M2 mips_gradient(const M2& J, double scale) {
+  const double det = J.det(), n2 = J.norm2();
+  const M2 C = J.cof();
+  const double k1 = scale * 2 / det, k2 = scale * n2 / (det * det);
+  return {k1 * J.a - k2 * C.a, k1 * J.b - k2 * C.b, k1 * J.c - k2 * C.c, k1 * J.d - k2 * C.d};
+}
+
 // Energy of one Jacobian and its gradient dE/dJ (when grad is not null).
 double jacobian_energy(const M2& J, const DescentSettings& s, M2* grad) {
   const double det = J.det(), n2 = J.norm2();
@@ -68,10 +76,7 @@ double jacobian_energy(const M2& J, const DescentSettings& s, M2* grad) {
       // power p, base b: (f / 2b)^p with f = mips, gradient p (f / 2b)^(p - 1) / 2b times f's.
       const double f = n2 / det, b = 2 * s.power_base;
       const double scale = s.power == 1 ? 1 : s.power / b * std::pow(f / b, s.power - 1);
-      if (grad) {
-        const double k1 = scale * 2 / det, k2 = scale * n2 / (det * det);
-        *grad = {k1 * J.a - k2 * C.a, k1 * J.b - k2 * C.b, k1 * J.c - k2 * C.c, k1 * J.d - k2 * C.d};
-      }
+      if (grad) *grad = mips_gradient(J, scale);
       return s.power == 1 ? f : std::pow(f / b, s.power);
     }
     case UvEnergy::symmetric_dirichlet: {  // |J|^2 + |J^-1|^2 = |J|^2 (1 + 1 / det^2) in 2D
@@ -395,9 +400,8 @@ struct UvDescent::Impl {
         const double det = J.det(), n2 = J.norm2(), b2 = 2 * base, f = n2 / det;
         const double c1 = power / b2 * std::pow(f / b2, power - 1);
         const double c2 = power * (power - 1) / (b2 * b2) * std::pow(f / b2, power - 2);
-        const M2 C = J.cof();
-        const double k1 = 2 / det, k2 = n2 / (det * det);
-        const std::array<double, 4> gf = {k1 * J.a - k2 * C.a, k1 * J.b - k2 * C.b, k1 * J.c - k2 * C.c, k1 * J.d - k2 * C.d};
+        const M2 G = mips_gradient(J, 1);
+        const std::array<double, 4> gf = {G.a, G.b, G.c, G.d};
         for (std::size_t i = 0; i < 4; ++i)
           for (std::size_t j = 0; j < 4; ++j) hj[4 * i + j] = c1 * hj[4 * i + j] + c2 * gf[i] * gf[j];
       }
