@@ -16,10 +16,10 @@ teardown() {
   if [ -n "${FULL_PID:-}" ] && kill -0 "$FULL_PID" 2>/dev/null; then stop_server FULL || true; fi
 }
 
-# raw PORT PAYLOAD [SECONDS]: writes PAYLOAD on a new connection and reads until the server closes it or
-# SECONDS (default 3) pass. Sets $raw_file (all bytes read), $raw_status (status of the first answer),
-# $raw_ctype, $raw_body (the first answer's body, by its Content-Length), $raw_answers (how many status lines
-# came back), $raw_closed (1 when the server closed the connection in time) and $raw_ms.
+# raw PORT PAYLOAD [SECONDS]: writes PAYLOAD, in a single write, on a new connection and reads until the
+# server closes it or SECONDS (default 3) pass. Sets $raw_file (all bytes read), $raw_status (status of the
+# first answer), $raw_ctype, $raw_body (the first answer's body, by its Content-Length), $raw_answers (how many
+# status lines came back), $raw_closed (1 when the server closed the connection in time) and $raw_ms.
 raw_no=0
 raw() {
   raw_no=$((raw_no + 1))
@@ -27,7 +27,10 @@ raw() {
   local t0 t1
   t0=$(date +%s%N)
   raw_closed=1
-  timeout "${3:-3}" bash -c 'exec 3<>/dev/tcp/127.0.0.1/$1; printf "%s" "$2" >&3; cat <&3' _ "$1" "$2" >"$raw_file" ||
+  # One write() for the whole payload: bash line-buffers its printf, so printing to the socket would send
+  # every header line apart, and a body meant to arrive with its head might not have arrived yet.
+  printf '%s' "$2" >"$raw_file.out"
+  timeout "${3:-3}" bash -c 'exec 3<>/dev/tcp/127.0.0.1/$1; cat "$2" >&3; cat <&3' _ "$1" "$raw_file.out" >"$raw_file" ||
     raw_closed=0
   t1=$(date +%s%N)
   raw_ms=$(((t1 - t0) / 1000000))
