@@ -7,11 +7,13 @@
 // max K over the faces with a corner off the boundary; fixedK: max K over faces with three boundary corners
 // (the same in both maps, no vertex move changes it); a case whose worst face is such a face is noted.
 // starLB: a lower bound on max K two rings in for every locally injective map of the (refined) mesh, from the
-// angle sums of single vertex stars (star_bound below); where it exceeds 1.5 x the map's inner mean K, inner
+// angle sums of single vertex stars (tests/support/star_bound.h); where it exceeds 1.5 x the map's inner mean K, inner
 // max / mean <= 1.5 would take a map with a higher mean K.
 //
-//   bench_extremal [--reps N] [--mesh NAME]... [--budget-s S]
+//   bench_extremal [--reps N] [--mesh NAME]... [--kind TARGET]... [--budget-s S]
 //
+// --mesh and --kind keep only the named meshes and target kinds (circle, c_shape, exp_strip, weak_fan; cross
+// for the square grids).
 // Times are the median of N runs (default 1). Each run gets S seconds (default 60) through the CancelToken.
 #include <algorithm>
 #include <array>
@@ -24,6 +26,7 @@
 #include <string>
 #include <vector>
 
+#include "../tests/support/star_bound.h"
 #include "../tests/support/target_generators.h"
 #include "engine/cancel.h"
 #include "engine/error.h"
@@ -90,59 +93,12 @@ void fixed_and_movable(const lipmap::ParametrizeResult& r, Stats& s) {
   }
 }
 
-// A lower bound on max K over the star of an interior vertex v, for every locally injective map of this mesh:
-// the star's angles at v must add up to 2 pi in the plane. An affine map of dilatation K takes the triangle
-// (0, 1, z) (v at 0, z in the upper half-plane) to one whose shape z' lies within hyperbolic distance log K of
-// z (the Teichmuller distance of triangles), a Euclidean disk of center x + i y cosh(log K) and radius
-// y sinh(log K); the angle at v, arg z', then ranges over arg(center) -+ asin(radius / |center|). The bound is
-// the least K for which the star's smallest angles add up to at most 2 pi and its largest to at least 2 pi.
-// (Necessary only: the star's faces must also agree on their shared edges.) A vertex whose 3D angle sum is far
-// from 2 pi (a cone) forces a K that no map of this mesh goes below, whatever the boundary.
-double star_bound(const std::vector<std::array<double, 2>>& shapes) {  // shapes: (|vb| / |va|, angle at v)
-  auto sums = [&](double r, double& lo, double& hi) {
-    lo = hi = 0;
-    for (const auto& [ratio, angle] : shapes) {
-      const double x = ratio * std::cos(angle), y = ratio * std::sin(angle);
-      const double cx = x, cy = y * std::cosh(r), rad = y * std::sinh(r), c = std::hypot(cx, cy);
-      const double mid = std::atan2(cy, cx), half = std::asin(std::min(1.0, rad / c));
-      lo += std::max(0.0, mid - half);
-      hi += std::min(M_PI, mid + half);
-    }
-  };
-  double lo = 0, hi = 0;
-  sums(0, lo, hi);
-  if (lo <= 2 * M_PI && hi >= 2 * M_PI) return 1;
-  double a = 0, b = 30;
-  for (int i = 0; i < 60; ++i) {
-    const double m = 0.5 * (a + b);
-    sums(m, lo, hi);
-    (lo <= 2 * M_PI && hi >= 2 * M_PI ? b : a) = m;
-  }
-  return std::exp(b);
-}
-
 // max K / mean K over faces whose corners are all at least 2 edges from the boundary; star_lb: the largest
 // star_bound over the vertices at least 3 edges from the boundary (their stars are such faces), and its ratio to
 // the map's mean K over those faces.
 double inner_ratio(const lipmap::ParametrizeResult& r, double* star_lb = nullptr, double* star_lb_ratio = nullptr) {
   const auto& faces = r.map.faces;
-  const std::size_t nv = r.map.vertices.size();
-  std::map<std::pair<int, int>, int> uses;
-  std::vector<std::vector<int>> nbr(nv);
-  for (const Triangle& t : faces)
-    for (int c = 0; c < 3; ++c) {
-      const int a = t[c], b = t[(c + 1) % 3];
-      nbr[a].push_back(b);
-      ++uses[{std::min(a, b), std::max(a, b)}];
-    }
-  std::vector<int> dist(nv, -1), queue;
-  for (const auto& [e, n] : uses)
-    if (n == 1)
-      for (int v : {e.first, e.second})
-        if (dist[v] < 0) dist[v] = 0, queue.push_back(v);
-  for (std::size_t i = 0; i < queue.size(); ++i)
-    for (int w : nbr[queue[i]])
-      if (dist[w] < 0) dist[w] = dist[queue[i]] + 1, queue.push_back(w);
+  const std::vector<int> dist = lipmap::starbound::ring_distances(r.map.vertices.size(), faces);
   double mx = 1, sum = 0, area = 0;
   for (std::size_t f = 0; f < faces.size(); ++f) {
     const Triangle& t = faces[f];
@@ -157,23 +113,7 @@ double inner_ratio(const lipmap::ParametrizeResult& r, double* star_lb = nullptr
     area += w;
   }
   if (star_lb) {
-    std::vector<std::vector<std::array<double, 2>>> star(nv);
-    for (const Triangle& t : faces)
-      for (int c = 0; c < 3; ++c) {
-        const int v = t[c], a = t[(c + 1) % 3], b = t[(c + 2) % 3];
-        if (dist[v] < 3) continue;
-        const Point3 &p = r.map.vertices[v], &q = r.map.vertices[a], &w = r.map.vertices[b];
-        const double e1[3] = {q.x - p.x, q.y - p.y, q.z - p.z}, e2[3] = {w.x - p.x, w.y - p.y, w.z - p.z};
-        const double l1 = std::sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
-        const double l2 = std::sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]);
-        const double cr[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]};
-        const double angle = std::atan2(std::sqrt(cr[0] * cr[0] + cr[1] * cr[1] + cr[2] * cr[2]),
-                                        e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2]);
-        if (l1 > 0 && l2 > 0 && angle > 0) star[v].push_back({l2 / l1, angle});
-      }
-    *star_lb = 1;
-    for (std::size_t v = 0; v < nv; ++v)
-      if (star[v].size() >= 3) *star_lb = std::max(*star_lb, star_bound(star[v]));
+    *star_lb = lipmap::starbound::largest_star_bound(r.map.vertices, faces, dist, 3);
     if (star_lb_ratio) *star_lb_ratio = area > 0 ? *star_lb / (sum / area) : 1;
   }
   return area > 0 ? mx / (sum / area) : 1;
@@ -218,13 +158,14 @@ Stats run(const lipmap::RawMesh& mesh, const std::vector<Point2>& positions, con
 int main(int argc, char** argv) {
   int reps = 1;
   double budget_s = 60;
-  std::vector<std::string> only;
+  std::vector<std::string> only, only_kinds;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--reps") && i + 1 < argc) reps = std::max(1, std::atoi(argv[++i]));
     else if (!std::strcmp(argv[i], "--mesh") && i + 1 < argc) only.push_back(argv[++i]);
+    else if (!std::strcmp(argv[i], "--kind") && i + 1 < argc) only_kinds.push_back(argv[++i]);
     else if (!std::strcmp(argv[i], "--budget-s") && i + 1 < argc) budget_s = std::max(1.0, std::atof(argv[++i]));
     else {
-      std::printf("usage: %s [--reps N] [--mesh NAME]... [--budget-s S]\n", argv[0]);
+      std::printf("usage: %s [--reps N] [--mesh NAME]... [--kind TARGET]... [--budget-s S]\n", argv[0]);
       return 2;
     }
   }
@@ -268,11 +209,14 @@ int main(int argc, char** argv) {
   auto wanted = [&](const std::string& name) {
     return only.empty() || std::find(only.begin(), only.end(), name) != only.end();
   };
+  auto wanted_kind = [&](const std::string& kind) {
+    return only_kinds.empty() || std::find(only_kinds.begin(), only_kinds.end(), kind) != only_kinds.end();
+  };
 
   // The square grid onto the cross (12 unit edges), loop vertices by arc length, corners on corners.
   for (int n : {24, 48}) {
     const std::string name = "square" + std::to_string(n);
-    if (!wanted(name)) continue;
+    if (!wanted(name) || !wanted_kind("cross")) continue;
     lipmap::RawMesh mesh;
     std::vector<Triangle> faces;
     for (int j = 0; j <= n; ++j)
@@ -305,6 +249,7 @@ int main(int argc, char** argv) {
     for (const auto& f : raw.faces) faces.push_back({int(f[0]), int(f[1]), int(f[2])});
     const std::vector<int> loop = boundary_loop(faces, vertices.size());
     for (Kind kind : {Kind::circle, Kind::c_shape, Kind::exp_strip, Kind::weak_fan}) {
+      if (!wanted_kind(lipmap::targetgen::kind_name(kind))) continue;
       const auto t = lipmap::targetgen::make_target(kind, {vertices, faces, loop});
       if (!t) continue;
       row(entry.name() + " / " + lipmap::targetgen::kind_name(kind), raw, t->positions, t->rotation_indices);
