@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "engine/detail/piece_mesher.h"
 #include "engine/detail/uv_descent.h"
@@ -51,12 +52,12 @@ double face_k(const RestInverse& s, const Point2& u0, const Point2& u1, const Po
   return (Q + R) / (Q - R);
 }
 
-}  // namespace
-
-ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vector<int>& loop, RefinedMap& map,
-                                        const ExtremalRelaxOptions& options, const CancelToken* cancel,
-                                        const std::vector<Point3>* rest) {
-  const auto t0 = Clock::now();
+// One relaxation of map (see relax_max_dilatation). With removable non-null, a conditional descent (below) that
+// would make an inserted point removable ends the round at once: that map (every face positive) goes to
+// *removable and map is left as it came.
+ExtremalRelaxation relax_round(const DiskMesh& source, const std::vector<int>& loop, RefinedMap& map,
+                               const ExtremalRelaxOptions& options, const CancelToken* cancel,
+                               const std::vector<Point3>* rest, Clock::time_point t0, std::vector<Point2>* removable) {
   ExtremalRelaxation out;
   const std::size_t nv = map.vertices.size(), nf = map.faces.size(), nv_source = source.vertices.size();
   const std::vector<Point3>& shape = rest ? *rest : map.vertices;
@@ -239,12 +240,13 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
   // terms neither overflow nor all vanish. It is kept only when it lowers the max K over the movable faces; the
   // compass search then settles the worst faces level by level as before.
   // descend(conditional): the descent over the vertices with pinned 0, and with conditional also those with
-  // pinned 1; then the map is kept only when every inserted point is still certainly needed (as for a compass
-  // move of such a vertex, below). True when kept.
+  // pinned 1, every inserted point staying certainly needed (as for a compass move of such a vertex, below);
+  // kept only when it lowers the movable faces' max K. Says whether it was kept, and whether whole.
+  enum class Descent { none, partial, complete };
   auto descend = [&](bool conditional) {
     std::vector<char> fixed(nv);
     for (std::size_t v = 0; v < nv; ++v) fixed[v] = conditional ? pinned[v] == 2 : pinned[v] != 0;
-    if (std::all_of(fixed.begin(), fixed.end(), [](char c) { return c != 0; })) return false;
+    if (std::all_of(fixed.begin(), fixed.end(), [](char c) { return c != 0; })) return Descent::none;
     std::vector<Point2> polygon;
     for (int v : loop) polygon.push_back(map.uv[static_cast<std::size_t>(v)]);
     // max K over the faces this descent can change (a corner not fixed): a worst face that it cannot move (all
@@ -278,31 +280,57 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
         if (edge_of[i - nv_source] >= 0 && !still_needed_point(static_cast<int>(i))) return false;
       return true;
     };
-    bool needed = true;
-    for (double p = 2; p <= 256 && needed; p *= 2) {
+    // The last map every inserted point was still needed on (checked after every power): a descent that makes
+    // a point removable ends there, after a step back toward it that keeps every point needed, when one of
+    // 1/2, 1/4, ..., 1/32 of the way does (with every face positive, exact).
+    std::vector<Point2> good = map.uv, tried;
+    Descent result = Descent::complete;
+    for (double p = 2; p <= 256; p *= 2) {
       for (std::size_t f = 0; f < nf; ++f) k[f] = k_of(f);
       const double worst = movable_level();
       s.power = p;
       s.power_base = 0.5 * (worst + 1 / worst);  // mips / 2 = (K + 1/K) / 2 of the worst movable face
       descent.minimize(map.uv, s);
-      // Checked after every power, so that a descent that makes a point removable stops early.
-      needed = !conditional || every_point_needed();
+      if (!conditional || every_point_needed()) {
+        good = map.uv;
+        continue;
+      }
+      result = Descent::partial;
+      tried = map.uv;
+      if (removable && count_non_positive(tried, map.faces) == 0) {
+        *removable = std::move(tried);
+        map.uv = start;
+        k = k_start;
+        return Descent::none;
+      }
+      map.uv = good;
+      for (double t = 0.5; t > 0.02; t *= 0.5) {
+        for (std::size_t v = 0; v < nv; ++v)
+          map.uv[v] = {good[v].x + t * (tried[v].x - good[v].x), good[v].y + t * (tried[v].y - good[v].y)};
+        if (count_non_positive(map.uv, map.faces) == 0 && every_point_needed()) break;
+        map.uv = good;
+      }
+      break;
     }
     for (std::size_t f = 0; f < nf; ++f) k[f] = k_of(f);
     // The faces with every corner fixed keep their K, so max K over the others dropping keeps the global one
     // from rising.
-    const bool kept = needed && movable_level() < before && count_non_positive(map.uv, map.faces) == 0;
-    if (!kept) {
+    if (!(movable_level() < before && count_non_positive(map.uv, map.faces) == 0)) {
       map.uv = start;
       k = k_start;
+      return Descent::none;
     }
-    return kept;
+    return result;
   };
-  // On a refined map, first over every vertex off the boundary; when an inserted point becomes removable, over
-  // the freely movable ones only (three_peaks onto c_shape, one point inserted: max K / mean K two rings in
-  // 1.72 -> 1.06). Pinning the polygons of the points that became removable and starting over, up to three
+  // On a refined map, first over every vertex off the boundary until an inserted point would become removable,
+  // then over the freely movable ones only (three_peaks onto c_shape, one point inserted: max K / mean K two
+  // rings in 1.72 -> 1.06). Pinning the polygons of the points that became removable and starting over, up to three
   // times, lowered it on two more bench_extremal cases, 6.5 -> 4.7 and 2.3 -> 2.1, for up to 24x the time.
-  if (!(nv > nv_source && descend(true))) descend(false);
+  // A conditional descent that stopped early leaves the freely movable vertices room to go on.
+  if (!(nv > nv_source && descend(true) == Descent::complete)) {
+    if (removable && !removable->empty()) return out;
+    descend(false);
+  }
 
   std::vector<int> star;
   long long evals = 0;
@@ -412,8 +440,56 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
     }
   }
   out.max_after = *std::max_element(k.begin(), k.end());
-  out.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
   return out;
+}
+
+}  // namespace
+
+ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vector<int>& loop, RefinedMap& map,
+                                        const ExtremalRelaxOptions& options, const CancelToken* cancel,
+                                        const std::vector<Point3>* rest) {
+  const auto t0 = Clock::now();
+  // The refined faces' corners can move only while every inserted point stays needed (contract point 6). When
+  // the descent would make points removable, they are removed instead (refine.h's simplify_again: the rounds
+  // of Fig. 11 on the moved map) and the relaxation starts over on the smaller refinement: the descent wants
+  // the folds the points were inserted for undone. A few rounds at most: each costs a descent.
+  constexpr int kSimplifyRounds = 12;
+  const bool may_simplify = !options.rotation.empty() && !rest && !map.inserted.empty();
+  double max_before = 0;
+  int removed = 0;
+  std::optional<RefinedMap> original;
+  if (may_simplify) original = map;
+  for (int round = 0;; ++round) {
+    std::vector<Point2> removable;
+    const bool offer = may_simplify && round < kSimplifyRounds && !map.inserted.empty();
+    ExtremalRelaxation out = relax_round(source, loop, map, options, cancel, rest, t0, offer ? &removable : nullptr);
+    if (round == 0) max_before = out.max_before;
+    if (!removable.empty()) {
+      RefinedMap simpler = map;
+      simpler.uv = std::move(removable);
+      const std::size_t points = map.inserted.size();
+      if (simplify_again(source, loop, options.rotation, simpler, cancel)) {
+        removed += static_cast<int>(points - simpler.inserted.size());
+        map = std::move(simpler);
+        continue;
+      }
+      out = relax_round(source, loop, map, options, cancel, rest, t0, nullptr);
+    }
+    if (removed > 0) {
+      // The map relaxed without removing points, for comparison: the smaller refinement's map is kept only when
+      // its max K is not higher (the new triangulations of Fig. 12 are any valid ones, not the best shaped), so
+      // the relaxation never raises max K and never does worse than without simplify_again.
+      RefinedMap simplified = std::move(map);
+      map = std::move(*original);
+      ExtremalRelaxation kept = relax_round(source, loop, map, options, cancel, rest, t0, nullptr);
+      if (out.max_after <= kept.max_after) map = std::move(simplified);
+      else out = kept, removed = 0;
+    }
+    out.max_before = max_before;
+    out.points_removed = removed;
+    out.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    return out;
+  }
 }
 
 }  // namespace lipmap

@@ -6,8 +6,10 @@
 // turns over and checked exactly) on the area-weighted sum of ((K + 1/K) / 2)^p relative to the worst movable
 // face's, for p = 2, 4, ..., 256: a smooth stand-in for max K that moves many vertices at once and, as p grows,
 // evens K out over the interior as a Teichmuller map's constant K would. On a refined map it first moves every
-// vertex off the boundary (given up as soon as an inserted point becomes removable, see below), else only the
-// freely movable ones. It is kept only when it lowers max K over the faces it can change. bench_extremal,
+// vertex off the boundary until an inserted point would become removable (see below); given the rotation
+// indices, those points are then removed (refine.h's simplify_again, the rounds of Fig. 11 on the moved map,
+// kept when max K does not rise) and the relaxation starts over on the smaller refinement, a few rounds at most;
+// else only the freely movable vertices move. It is kept only when it lowers max K over the faces it can change. bench_extremal,
 // against the L-BFGS descent to p = 16 of before: max K / mean K two rings in <= 1.5 in 41 of 50 cases
 // instead of 27 of 51, median 1.065 instead of 1.482 (docs/testing.md). Then:
 //
@@ -59,6 +61,8 @@ struct ExtremalRelaxation {
   // max K over the faces whose three corners are boundary vertices: their uv is the polygon's and their 3D
   // shape the mesh's, so no vertex move (and no other map with this boundary and no insertion) changes them.
   double fixed_max = 1;
+  // Inserted points the relaxation's descent made unnecessary, removed again (refine.h's simplify_again).
+  int points_removed = 0;
   double ms = 0;
   // The pipeline relaxes two starts and keeps the one with the lower max K (engine/pipeline.cpp):
   // "teichmuller" (the paper's composed map) or "harmonic" (the harmonic method's refined map).
@@ -70,6 +74,10 @@ struct ExtremalRelaxation {
 struct ExtremalRelaxOptions {
   int max_sweeps = 400;
   double time_budget_ms = 0;  // 0: none (besides the sweeps' cap and the cancel token)
+  // The classification's full rotation index per boundary loop vertex (refine()'s rotation). Given, the
+  // inserted points a descent would make removable are removed (simplify_again) and the relaxation goes on;
+  // empty, such a descent is given up.
+  std::vector<int> rotation;
 };
 
 // map: a refined map at the working scale with every face strictly positive; uv changed in place. rest: the

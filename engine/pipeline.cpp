@@ -231,6 +231,7 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
       out.extremal.relaxation = run_stage(Stage::optimize, time.optimize, cancel, progress, [&] {
         ExtremalRelaxOptions relax;
         relax.time_budget_ms = options.time_budget_ms;
+        relax.rotation = out.classification.rotation_indices;
         return relax_max_dilatation(work_mesh, input.boundary.loop, out.map, relax, cancel);
       });
     } else if (options.refine && !out.metric.reproduced) {

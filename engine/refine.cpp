@@ -58,7 +58,7 @@ public:
         walk_owned_(composition.walk ? composition.walk
                                      : std::make_shared<const detail::DiskWalk>(target_disk, target.vertices, target.faces,
                                                                                 target.topology)),
-        walk_(*walk_owned_), cancel_(cancel) {
+        walk_(walk_owned_.get()), cancel_(cancel) {
     const int nv = static_cast<int>(source.vertices.size());
     start_face_ = composition.target_face;
     double extent = 0;  // of the target polygon, for the rounding tolerance of drop_repeated_images
@@ -66,10 +66,58 @@ public:
     image_tolerance_ = 1e-12 * extent;
     singular_.assign(nv, 0);
     for (int k = 0; k < static_cast<int>(loop.size()); ++k) {
-      start_face_[loop[k]] = walk_.face_at_vertex(k);
+      start_face_[loop[k]] = walk_->face_at_vertex(k);
       singular_[loop[k]] = rotation[k];
     }
     build_edges();
+  }
+
+  // A refined map as it is (simplify_again): the original vertices' uv and the inserted points on their edges.
+  // Every polygon already has a triangulation (the map's own) and the rounds of Fig. 11 only remove points
+  // from polygons that stay usable, so no point is ever inserted: there is no walk.
+  Refiner(const DiskMesh& source, const std::vector<int>& loop, const std::vector<int>& rotation, const RefinedMap& map,
+          const CancelToken* cancel)
+      : source_(source), faces_(source.faces), source_disk_(no_disk_),
+        uv_(map.uv.begin(), map.uv.begin() + static_cast<std::ptrdiff_t>(source.vertices.size())), walk_(nullptr),
+        cancel_(cancel) {
+    singular_.assign(source.vertices.size(), 0);
+    for (std::size_t k = 0; k < loop.size() && k < rotation.size(); ++k) singular_[loop[k]] = rotation[k];
+    build_edges();
+    const std::size_t nv = source.vertices.size();
+    for (std::size_t i = 0; i < map.inserted.size(); ++i) {
+      const InsertedVertex& iv = map.inserted[i];
+      const int e = source.topology.find_edge(iv.a, iv.b);
+      if (e < 0) throw InternalError("refine: an inserted point is not on an edge of the source mesh");
+      points_[e].push_back({iv.t, map.uv[nv + i], false});
+    }
+    for (int e = 0; e < static_cast<int>(points_.size()); ++e) {
+      if (points_[e].empty()) continue;
+      std::sort(points_[e].begin(), points_[e].end(), [](const EdgePoint& p, const EdgePoint& q) { return p.t < q.t; });
+      edge_done_[e] = 1;
+      point_base_[e] = point_count_;
+      point_count_ += static_cast<long long>(points_[e].size());
+    }
+  }
+
+  // simplify_again: the rounds of Fig. 11 and the triangulation of Fig. 12 on the map as it is. False (out
+  // untouched) when no point went, or when a face found no triangulation.
+  bool simplify_map(RefinedMap& out) {
+    long long before = 0;
+    for (const auto& pts : points_) before += static_cast<long long>(pts.size());
+    simplify();
+    long long after = 0;
+    for (const auto& pts : points_)
+      for (const EdgePoint& p : pts) after += p.removed ? 0 : 1;
+    if (after == before) return false;
+    triangulate_all();
+    if (!failed_faces_.empty()) return false;
+    RefinedMap fresh;
+    assemble(fresh);
+    out.vertices = std::move(fresh.vertices);
+    out.faces = std::move(fresh.faces);
+    out.uv = std::move(fresh.uv);
+    out.inserted = std::move(fresh.inserted);
+    return true;
   }
 
   RefinedMap run(bool refine) {
@@ -254,7 +302,7 @@ private:
     if (edge_faces_[e][1] < 0) return;  // boundary edges coincide with h_t(M_t)'s boundary: nothing crosses
     const int a = edge_vertices_[e][0], b = edge_vertices_[e][1];
     point_base_[e] = point_count_;
-    for (const detail::Crossing& c : walk_.crossings(pt(source_disk_[a]), pt(source_disk_[b]), start_face_[a]))
+    for (const detail::Crossing& c : walk_->crossings(pt(source_disk_[a]), pt(source_disk_[b]), start_face_[a]))
       points_[e].push_back({c.t, c.uv, false});
     drop_repeated_images(e);
     point_count_ += static_cast<long long>(points_[e].size());
@@ -495,7 +543,7 @@ private:
         for (const Triangle& t : *tri) triangles_[f].push_back({key(poly[t[0]]), key(poly[t[1]]), key(poly[t[2]])});
         continue;
       }
-      if (fully_refined(f) && subdivisions_[f] >= kMaxSubdivisions) {
+      if (!walk_ || (fully_refined(f) && subdivisions_[f] >= kMaxSubdivisions)) {
         failed_faces_.push_back(f);
         triangles_[f].clear();
         continue;
@@ -555,8 +603,8 @@ private:
       const double t = 0.5 * (t0 + t1);
       if (!(t > t0 && t < t1)) return;  // the segment is too short to halve in double
       const Pt q(A.x + t * (B.x - A.x), A.y + t * (B.y - A.y));
-      const int face = walk_.locate(q, start_face_[a]);
-      finer.push_back({t, walk_.target_point(q, face), false});
+      const int face = walk_->locate(q, start_face_[a]);
+      finer.push_back({t, walk_->target_point(q, face), false});
     };
     for (const EdgePoint& p : points_[e]) {
       add_midpoint(last, p.t);
@@ -620,9 +668,10 @@ private:
   const DiskMesh& source_;
   const std::vector<Triangle>& faces_;
   const std::vector<Point2>& source_disk_;
+  static inline const std::vector<Point2> no_disk_{};  // source_disk_ of a map taken as it is
   std::vector<Point2> uv_;
   std::shared_ptr<const detail::DiskWalk> walk_owned_;
-  const detail::DiskWalk& walk_;
+  const detail::DiskWalk* walk_;  // null for a refined map taken as it is (simplify_again): nothing to insert
   const CancelToken* cancel_;
   std::vector<int> start_face_;
   double image_tolerance_ = 0;
@@ -653,6 +702,13 @@ RefinedMap refine(const DiskMesh& source, const std::vector<int>& loop, const st
                   const CancelToken* cancel) {
   Refiner refiner(source, loop, rotation, source_disk, target, target_disk, composition, cancel);
   return refiner.run(refine);
+}
+
+bool simplify_again(const DiskMesh& source, const std::vector<int>& loop, const std::vector<int>& rotation,
+                    RefinedMap& map, const CancelToken* cancel) {
+  if (map.inserted.empty()) return false;
+  Refiner refiner(source, loop, rotation, map, cancel);
+  return refiner.simplify_map(map);
 }
 
 }  // namespace lipmap

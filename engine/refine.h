@@ -47,4 +47,12 @@ RefinedMap refine(const DiskMesh& source, const std::vector<int>& loop, const st
                   const std::vector<Point2>& target_disk, const Composition& composition, bool refine,
                   const CancelToken* cancel = nullptr);
 
+// The rounds of Fig. 11 again, on a refined map whose uv moved since refine() (engine/extremal_relax.h): the
+// inserted points that its polygons no longer need go, and the refined faces are triangulated again (Fig. 12)
+// from the same doubles, exactly as refine() decides. Precondition: map is refine()'s map of this source, every
+// face strictly positive. True when points were removed (map replaced: the same original vertices and uv, fewer
+// inserted points, new faces); false leaves map as it was. Throws Cancelled.
+bool simplify_again(const DiskMesh& source, const std::vector<int>& loop, const std::vector<int>& rotation,
+                    RefinedMap& map, const CancelToken* cancel = nullptr);
+
 }  // namespace lipmap

@@ -6,13 +6,16 @@
 // force here: every refined polygon is self-overlapping (some triangulation of it has only positive
 // triangles, the polygon's own angles, and no triangle flat on one original edge: all triangulations are
 // enumerated), and no inserted point can be removed: without it, one of its two polygons stops being
-// self-overlapping or the angle sum at an end of its edge changes.
+// self-overlapping or the angle sum at an end of its edge changes. simplify_again, the same rounds on a map
+// whose uv moved, is checked the same way.
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <functional>
 #include <map>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -288,6 +291,61 @@ TEST(Refine, SmallGridsOntoPolygonsWithEmptyKernel) {
       polygons_checked += check_figure_11(r);
     }
   EXPECT_GT(polygons_checked, 0);
+}
+
+// simplify_again (the rounds of Fig. 11 on a map whose uv moved, used by method extremal's relaxation). On
+// refine()'s own map nothing goes (its rounds ran to the end): false, the map untouched. After every vertex
+// off the boundary is jittered in uv (amounts halved until every face is strictly positive, exact), whatever
+// it returns passes the contract (independent checker) and the brute-force Fig. 11 check: every refined
+// polygon self-overlapping, no inserted point removable; with fewer points than before and every original
+// vertex at its uv when it returns true, the map untouched when false.
+TEST(RefineAgain, RemovesWhatAMovedMapNoLongerNeedsAndNothingElse) {
+  std::vector<RefineRun> runs;
+  for (const auto& polygon : kEmptyKernel)
+    for (std::size_t s = 0; s < polygon.size(); s += 3)
+      for (double h : {0.2, 1.0}) runs.push_back(run_to_refine(fan(static_cast<int>(polygon.size()), h), rotated(polygon, s)));
+  int cases = 0, removing = 0, points_removed = 0;
+  for (const RefineRun& r : runs) {
+    ASSERT_GT(r.map.inserted.size(), 0u);
+    RefinedMap same = r.map;
+    EXPECT_FALSE(simplify_again(r.mesh, r.boundary.loop, r.classification.rotation_indices, same));
+    EXPECT_EQ(same.uv, r.map.uv);
+    EXPECT_EQ(same.faces, r.map.faces);
+    std::vector<char> on_loop(r.map.uv.size(), 0);
+    for (int v : r.boundary.loop) on_loop[v] = 1;
+    for (unsigned seed = 0; seed < 6; ++seed) {
+      std::mt19937 rng(seed);
+      std::uniform_real_distribution<double> unit(-1, 1);
+      RefineRun moved = r;
+      for (double amount = 0.3;; amount *= 0.5) {
+        moved.map.uv = r.map.uv;
+        for (std::size_t v = 0; v < moved.map.uv.size(); ++v)
+          if (!on_loop[v]) moved.map.uv[v] = {r.map.uv[v].x + amount * unit(rng), r.map.uv[v].y + amount * unit(rng)};
+        bool positive = true;
+        for (const Triangle& t : moved.map.faces)
+          positive = positive && orient(moved.map.uv[t[0]], moved.map.uv[t[1]], moved.map.uv[t[2]]) > 0;
+        if (positive) break;
+      }
+      SCOPED_TRACE("polygon of " + std::to_string(r.boundary.loop.size()) + ", seed " + std::to_string(seed));
+      RefinedMap simpler = moved.map;
+      ++cases;
+      if (!simplify_again(moved.mesh, moved.boundary.loop, moved.classification.rotation_indices, simpler)) {
+        EXPECT_EQ(simpler.uv, moved.map.uv);
+        EXPECT_EQ(simpler.faces, moved.map.faces);
+        continue;
+      }
+      ++removing;
+      EXPECT_LT(simpler.inserted.size(), moved.map.inserted.size());
+      points_removed += static_cast<int>(moved.map.inserted.size() - simpler.inserted.size());
+      for (std::size_t v = 0; v < moved.mesh.vertices.size(); ++v) EXPECT_EQ(simpler.uv[v], moved.map.uv[v]) << v;
+      moved.map = std::move(simpler);
+      expect_valid(moved);
+      check_figure_11(moved);
+    }
+  }
+  std::printf("[ refine again ] %d jittered maps, points removed from %d (%d points)\n", cases, removing, points_removed);
+  EXPECT_GT(cases, 50);
+  EXPECT_GT(removing, 0);
 }
 
 // The brute-force test itself: a convex polygon is self-overlapping, a clockwise one is not, three points
