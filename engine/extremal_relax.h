@@ -7,9 +7,10 @@
 // face's, for p = 2, 4, ..., 256: a smooth stand-in for max K that moves many vertices at once and, as p grows,
 // evens K out over the interior as a Teichmuller map's constant K would. On a refined map it first moves every
 // vertex off the boundary until an inserted point would become removable (see below); given the rotation
-// indices, those points are then removed (refine.h's simplify_again, the rounds of Fig. 11 on the moved map,
-// kept when max K does not rise) and the relaxation starts over on the smaller refinement, a few rounds at most;
-// else only the freely movable vertices move. It is kept only when it lowers max K over the faces it can change. bench_extremal,
+// indices, those points are then removed (refine.h's simplify_again, the rounds of Fig. 11 on the moved map)
+// and the relaxation starts over on the smaller refinement, up to 12 rounds, the result kept when its max K is
+// not above that of the map relaxed without removing points; else only the freely movable vertices move. The
+// descent is kept only when it lowers max K over the faces it can change. bench_extremal,
 // against the L-BFGS descent to p = 16 of before: max K / mean K two rings in <= 1.5 in 41 of 50 cases
 // instead of 27 of 51, median 1.065 instead of 1.482 (docs/testing.md). Then:
 //
