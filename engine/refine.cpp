@@ -99,16 +99,20 @@ public:
     }
   }
 
+  // Inserted points currently in the refinement (not removed).
+  long long live_points() const {
+    long long n = 0;
+    for (const auto& pts : points_)
+      for (const EdgePoint& p : pts) n += p.removed ? 0 : 1;
+    return n;
+  }
+
   // simplify_again: the rounds of Fig. 11 and the triangulation of Fig. 12 on the map as it is. False (out
   // untouched) when no point went, or when a face found no triangulation.
   bool simplify_map(RefinedMap& out) {
-    long long before = 0;
-    for (const auto& pts : points_) before += static_cast<long long>(pts.size());
+    const long long before = live_points();
     simplify();
-    long long after = 0;
-    for (const auto& pts : points_)
-      for (const EdgePoint& p : pts) after += p.removed ? 0 : 1;
-    if (after == before) return false;
+    if (live_points() == before) return false;
     triangulate_all();
     if (!failed_faces_.empty()) return false;
     RefinedMap fresh;
@@ -132,8 +136,7 @@ public:
     auto t0 = Clock::now();
     refine_from(bad);
     out.refine_ms = ms_since(t0);
-    for (const auto& pts : points_)
-      for (const EdgePoint& p : pts) out.points_before_simplification += p.removed ? 0 : 1;
+    out.points_before_simplification = static_cast<int>(live_points());
 
     t0 = Clock::now();
     out.simplification_rounds = simplify();

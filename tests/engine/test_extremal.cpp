@@ -65,9 +65,10 @@ struct KStats {
 
 // K over the faces of (vertices, faces, uv) whose corners are all at least `rings` edges from the boundary
 // (rings = 0: every face). Ring distance by breadth-first search from the boundary vertices over the edges.
+// known_dist: the ring distances when the caller has them (else computed here).
 KStats k_stats(const std::vector<Point3>& p, const std::vector<Triangle>& faces, const std::vector<Point2>& uv,
-               int rings) {
-  const std::vector<int> dist = starbound::ring_distances(p.size(), faces);
+               int rings, const std::vector<int>* known_dist = nullptr) {
+  const std::vector<int> dist = known_dist ? *known_dist : starbound::ring_distances(p.size(), faces);
   KStats s;
   long double sum = 0, area = 0;
   for (const Triangle& t : faces) {
@@ -392,13 +393,15 @@ Comparison compare(const std::string& name, const mapcheck::SourceMesh& src, con
   }
   EXPECT_TRUE(e.extremal.ran) << name;
   EXPECT_FALSE(h.extremal.ran) << name;
-  c.extremal_all = k_stats(e.map.vertices, e.map.faces, e.map.uv, 0);
-  c.harmonic_all = k_stats(h.map.vertices, h.map.faces, h.map.uv, 0);
-  c.extremal_inner = k_stats(e.map.vertices, e.map.faces, e.map.uv, 2);
-  c.harmonic_inner = k_stats(h.map.vertices, h.map.faces, h.map.uv, 2);
+  const std::vector<int> e_dist = starbound::ring_distances(e.map.vertices.size(), e.map.faces);
+  c.extremal_all = k_stats(e.map.vertices, e.map.faces, e.map.uv, 0, &e_dist);
+  const std::vector<int> h_dist = starbound::ring_distances(h.map.vertices.size(), h.map.faces);
+  c.harmonic_all = k_stats(h.map.vertices, h.map.faces, h.map.uv, 0, &h_dist);
+  c.extremal_inner = k_stats(e.map.vertices, e.map.faces, e.map.uv, 2, &e_dist);
+  c.harmonic_inner = k_stats(h.map.vertices, h.map.faces, h.map.uv, 2, &h_dist);
   c.harmonic_fixed_max = fixed_face_max(h);
   c.extremal_star_bound =
-      starbound::largest_star_bound(e.map.vertices, e.map.faces, starbound::ring_distances(e.map.vertices.size(), e.map.faces), 3);
+      starbound::largest_star_bound(e.map.vertices, e.map.faces, e_dist, 3);
   c.extremal_inserted = e.map.inserted.size();
   c.points_removed = e.extremal.relaxation.points_removed;
   std::printf("[ extremal ] %-34s max K %.3f (harmonic %.3f); 2 rings in: max/mean %.3f / %.3f = %.3f (harmonic "
