@@ -470,13 +470,16 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
   if (may_simplify) original = map, fixed_before = unrefined_fixed_max(source, map, loop);
   // The refined faces' triangulations are reshaped before each relaxation and after the last one.
   auto reshape = [&](RefinedMap& m) { return flip_refined_diagonals(source, m, rest ? *rest : m.vertices); };
-  auto finish = [&](ExtremalRelaxation& out, RefinedMap& m) {
-    if (reshape(m) > 0) std::tie(out.max_after, out.fixed_max) = max_k(m, loop, rest ? *rest : m.vertices);
+  auto finish = [&](ExtremalRelaxation& out, RefinedMap& m, int& flips) {
+    const int n = reshape(m);
+    flips += n;
+    if (n > 0) std::tie(out.max_after, out.fixed_max) = max_k(m, loop, rest ? *rest : m.vertices);
   };
+  int flips = 0;
   for (int round = 0;; ++round) {
     std::vector<Point2> removable;
     const bool offer = may_simplify && round < kSimplifyRounds && !map.inserted.empty();
-    reshape(map);
+    flips += reshape(map);
     ExtremalRelaxation out = relax_round(source, loop, map, options, cancel, rest, t0, offer ? &removable : nullptr);
     if (round == 0) max_before = out.max_before;
     if (!removable.empty()) {
@@ -490,7 +493,7 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
       }
       out = relax_round(source, loop, map, options, cancel, rest, t0, nullptr);
     }
-    finish(out, map);
+    finish(out, map, flips);
     // The original map relaxed cannot end below fixed_before: when the smaller refinement is already there, the
     // comparison below cannot change the answer.
     if (removed > 0 && out.max_after > fixed_before) {
@@ -499,14 +502,15 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
       // the relaxation never raises max K and never does worse than without simplify_again.
       RefinedMap simplified = std::move(map);
       map = std::move(*original);
-      reshape(map);
+      int kept_flips = reshape(map);
       ExtremalRelaxation kept = relax_round(source, loop, map, options, cancel, rest, t0, nullptr);
-      finish(kept, map);
+      finish(kept, map, kept_flips);
       if (out.max_after <= kept.max_after) map = std::move(simplified);
-      else out = kept, removed = 0;
+      else out = kept, removed = 0, flips = kept_flips;
     }
     out.max_before = max_before;
     out.points_removed = removed;
+    out.edge_flips = flips;
     out.ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     return out;
   }

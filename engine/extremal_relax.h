@@ -65,6 +65,8 @@ struct ExtremalRelaxation {
   double fixed_max = 1;
   // Inserted points the relaxation's descent made unnecessary, removed again (refine.h's simplify_again).
   int points_removed = 0;
+  // Diagonals flipped inside refined faces to lower K (engine/refined_flips.h), over all rounds of the kept map.
+  int edge_flips = 0;
   double ms = 0;
   // The pipeline relaxes two starts and keeps the one with the lower max K (engine/pipeline.cpp):
   // "teichmuller" (the paper's composed map) or "harmonic" (the harmonic method's refined map).

@@ -669,6 +669,7 @@ ordered_json detail::result_json(const lipmap::ParametrizeResult& r, bool big) {
                                      {"max_k_after", finite_or_null(e.relaxation.max_after)},
                                      {"fixed_max_k", finite_or_null(e.relaxation.fixed_max)},
                                      {"points_removed", e.relaxation.points_removed},
+                                     {"edge_flips", e.relaxation.edge_flips},
                                      {"start", e.relaxation.start},
                                      {"other_start_max_k", finite_or_null(e.relaxation.other_start_max)}}}};
   }

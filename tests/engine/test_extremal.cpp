@@ -366,6 +366,7 @@ struct Comparison {
   double extremal_star_bound = 1;
   std::size_t extremal_inserted = 0;
   int points_removed = 0;  // inserted points the extremal relaxation removed again
+  int edge_flips = 0;      // diagonals it flipped inside refined faces
 };
 
 // max K over the faces whose three corners are on the boundary loop.
@@ -404,6 +405,7 @@ Comparison compare(const std::string& name, const mapcheck::SourceMesh& src, con
       starbound::largest_star_bound(e.map.vertices, e.map.faces, e_dist, 3);
   c.extremal_inserted = e.map.inserted.size();
   c.points_removed = e.extremal.relaxation.points_removed;
+  c.edge_flips = e.extremal.relaxation.edge_flips;
   std::printf("[ extremal ] %-34s max K %.3f (harmonic %.3f); 2 rings in: max/mean %.3f / %.3f = %.3f (harmonic "
               "%.3f / %.3f = %.3f); k %.3f after %d/%d solves, %zu inserted (harmonic %zu)%s\n",
               name.c_str(), c.extremal_all.max, c.harmonic_all.max, c.extremal_inner.max, c.extremal_inner.mean,
@@ -432,6 +434,7 @@ TEST(ExtremalPipeline, SharedMeshesOntoGeneratedTargetsPassTheContract) {
   // higher mean K).
   int unrefined = 0, even = 0, forced = 0;
   int simplified = 0;  // answers whose relaxation removed inserted points again: the checker saw them too
+  int reshaped = 0;    // answers whose refined faces got flipped diagonals: likewise
   for (const testmeshes::MeshEntry& entry : testmeshes::disk_meshes()) {
     if (entry.extra || entry.long_boundary || entry.triangles > 20000) continue;
     const LoadedMesh& m = pipelinecases::load(entry);
@@ -452,6 +455,9 @@ TEST(ExtremalPipeline, SharedMeshesOntoGeneratedTargetsPassTheContract) {
         ++fixed_worst;
       }
       simplified += c.points_removed > 0;
+      reshaped += c.edge_flips > 0;
+      // Nothing refined at any time, nothing to flip.
+      if (c.extremal_inserted == 0 && c.points_removed == 0) EXPECT_EQ(c.edge_flips, 0) << name;
       if (c.extremal_inserted > 0) continue;  // refined answers: see docs/testing.md (bench_extremal)
       ++unrefined;
       const double ratio = c.extremal_inner.max / c.extremal_inner.mean;
@@ -465,7 +471,9 @@ TEST(ExtremalPipeline, SharedMeshesOntoGeneratedTargetsPassTheContract) {
               "vertex star in %d\n", even, unrefined, forced);
   EXPECT_GE(unrefined, 12);
   std::printf("[ extremal ] inserted points removed again by the relaxation in %d answers\n", simplified);
+  std::printf("[ extremal ] diagonals flipped inside refined faces in %d answers\n", reshaped);
   EXPECT_GT(simplified, 0);
+  EXPECT_GT(reshaped, 0);
   std::printf("[ extremal ] max K below the harmonic map's in %d of %d cases, worst face fixed (three boundary "
               "corners) in %d\n", lower_max, cases, fixed_worst);
   EXPECT_GE(cases, 20);
