@@ -479,9 +479,9 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
   for (int round = 0;; ++round) {
     std::vector<Point2> removable;
     const bool offer = may_simplify && round < kSimplifyRounds && !map.inserted.empty();
+    if (round == 0) max_before = max_k(map, loop, rest ? *rest : map.vertices).first;  // the map as it came
     flips += reshape(map);
     ExtremalRelaxation out = relax_round(source, loop, map, options, cancel, rest, t0, offer ? &removable : nullptr);
-    if (round == 0) max_before = out.max_before;
     if (!removable.empty()) {
       RefinedMap simpler = map;
       simpler.uv = std::move(removable);
