@@ -43,13 +43,9 @@ std::pair<double, double> max_k(const RefinedMap& map, const std::vector<int>& l
 // max K over the source faces with three boundary corners and no inserted point on their edges: every map
 // with this boundary that refines no further (simplify_again, flip_refined_diagonals, vertex moves) keeps them.
 double unrefined_fixed_max(const DiskMesh& source, const RefinedMap& map, const std::vector<int>& loop) {
-  std::vector<char> on_loop(source.vertices.size(), 0), refined(source.faces.size(), 0);
+  std::vector<char> on_loop(source.vertices.size(), 0);
   for (int v : loop) on_loop[static_cast<std::size_t>(v)] = 1;
-  for (const InsertedVertex& iv : map.inserted) {
-    const int e = source.topology.find_edge(iv.a, iv.b);
-    if (e >= 0)
-      for (int h : source.topology.edge_uses(e)) refined[static_cast<std::size_t>(MeshTopology::face_of(h))] = 1;
-  }
+  const std::vector<char> refined = refined_source_faces(source, map);
   double fixed = 1;
   for (std::size_t f = 0; f < source.faces.size(); ++f) {
     const Triangle& t = source.faces[f];

@@ -714,4 +714,14 @@ bool simplify_again(const DiskMesh& source, const std::vector<int>& loop, const 
   return refiner.simplify_map(map);
 }
 
+std::vector<char> refined_source_faces(const DiskMesh& source, const RefinedMap& map) {
+  std::vector<char> refined(source.faces.size(), 0);
+  for (const InsertedVertex& iv : map.inserted) {
+    const int e = source.topology.find_edge(iv.a, iv.b);
+    if (e >= 0)
+      for (int h : source.topology.edge_uses(e)) refined[static_cast<std::size_t>(MeshTopology::face_of(h))] = 1;
+  }
+  return refined;
+}
+
 }  // namespace lipmap

@@ -55,4 +55,7 @@ RefinedMap refine(const DiskMesh& source, const std::vector<int>& loop, const st
 bool simplify_again(const DiskMesh& source, const std::vector<int>& loop, const std::vector<int>& rotation,
                     RefinedMap& map, const CancelToken* cancel = nullptr);
 
+// Per source face: whether an inserted point of map lies on one of its edges (its image is a refined polygon).
+std::vector<char> refined_source_faces(const DiskMesh& source, const RefinedMap& map);
+
 }  // namespace lipmap

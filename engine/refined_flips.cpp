@@ -16,13 +16,9 @@ int flip_refined_diagonals(const DiskMesh& source, RefinedMap& map, const std::v
   const std::size_t nv_source = source.vertices.size(), nf = map.faces.size();
   if (map.inserted.empty()) return 0;
   const MeshTopology& topo = source.topology;
+  const std::vector<char> refined = refined_source_faces(source, map);
   std::vector<int> edge_of(map.inserted.size(), -1);
-  std::vector<char> refined(source.faces.size(), 0);
-  for (std::size_t i = 0; i < map.inserted.size(); ++i) {
-    edge_of[i] = topo.find_edge(map.inserted[i].a, map.inserted[i].b);
-    if (edge_of[i] >= 0)
-      for (int h : topo.edge_uses(edge_of[i])) refined[static_cast<std::size_t>(MeshTopology::face_of(h))] = 1;
-  }
+  for (std::size_t i = 0; i < map.inserted.size(); ++i) edge_of[i] = topo.find_edge(map.inserted[i].a, map.inserted[i].b);
   // The source edges of face F (edge c: corner c to corner c + 1) and where a map vertex lies on F: a bit per
   // edge of F it lies on, 0 when it is not on F.
   auto edge_mask = [&](int v, int F) -> unsigned {
@@ -41,22 +37,19 @@ int flip_refined_diagonals(const DiskMesh& source, RefinedMap& map, const std::v
   std::vector<int> face_of(nf, -1);
   for (std::size_t f = 0; f < nf; ++f) {
     const Triangle& t = map.faces[f];
-    std::vector<int> candidates;
+    // The source faces of an edge that holds a corner: of an inserted corner's edge, else of (t0, t1).
+    int edge = -1;
     for (int v : t)
-      if (static_cast<std::size_t>(v) >= nv_source && edge_of[static_cast<std::size_t>(v) - nv_source] >= 0) {
-        for (int h : topo.edge_uses(edge_of[static_cast<std::size_t>(v) - nv_source])) candidates.push_back(MeshTopology::face_of(h));
-        break;
-      }
-    if (candidates.empty()) {
-      const int e = topo.find_edge(t[0], t[1]);
-      if (e >= 0)
-        for (int h : topo.edge_uses(e)) candidates.push_back(MeshTopology::face_of(h));
-    }
-    for (int F : candidates)
+      if (edge < 0 && static_cast<std::size_t>(v) >= nv_source) edge = edge_of[static_cast<std::size_t>(v) - nv_source];
+    if (edge < 0) edge = topo.find_edge(t[0], t[1]);
+    if (edge < 0) continue;
+    for (int h : topo.edge_uses(edge)) {
+      const int F = MeshTopology::face_of(h);
       if (refined[static_cast<std::size_t>(F)] && edge_mask(t[0], F) && edge_mask(t[1], F) && edge_mask(t[2], F)) {
         face_of[f] = F;
         break;
       }
+    }
   }
   auto key = [](int a, int b) {
     return (static_cast<std::uint64_t>(static_cast<std::uint32_t>(std::min(a, b))) << 32) | static_cast<std::uint32_t>(std::max(a, b));
