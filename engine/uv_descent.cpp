@@ -66,15 +66,18 @@ M2 mips_gradient(const M2& J, double scale) {
   return {k1 * J.a - k2 * C.a, k1 * J.b - k2 * C.b, k1 * J.c - k2 * C.c, k1 * J.d - k2 * C.d};
 }
 
-// Energy of one Jacobian and its gradient dE/dJ (when grad is not null).
-double jacobian_energy(const M2& J, const DescentSettings& s, M2* grad) {
+// Face f's power base (DescentSettings::face_base, else power_base).
+inline double base_of(const DescentSettings& s, std::size_t f) { return s.face_base ? (*s.face_base)[f] : s.power_base; }
+
+// Energy of one Jacobian and its gradient dE/dJ (when grad is not null); base: its face's power base.
+double jacobian_energy(const M2& J, const DescentSettings& s, double base, M2* grad) {
   const double det = J.det(), n2 = J.norm2();
   const M2 C = J.cof();
   switch (s.energy) {
     case UvEnergy::mips: {
       if (!(det > 0)) return kInf;
       // power p, base b: (f / 2b)^p with f = mips, gradient p (f / 2b)^(p - 1) / 2b times f's.
-      const double f = n2 / det, b = 2 * s.power_base;
+      const double f = n2 / det, b = 2 * base;
       const double scale = s.power == 1 ? 1 : s.power / b * std::pow(f / b, s.power - 1);
       if (grad) *grad = mips_gradient(J, scale);
       return s.power == 1 ? f : std::pow(f / b, s.power);
@@ -295,7 +298,9 @@ struct UvDescent::Impl {
     }
   }
 
-  void reweight_laplacian(const std::vector<Point2>& uv, UvEnergy energy, double power = 1, double base = 1) {
+  void reweight_laplacian(const std::vector<Point2>& uv, const DescentSettings& s) {
+    const UvEnergy energy = s.energy;
+    const double power = s.power;
     if (!factored || free_vertex.empty()) return;
     if (laplacian_slot.empty()) build_laplacian_slots();
     double* values = laplacian.valuePtr();
@@ -307,6 +312,7 @@ struct UvDescent::Impl {
       double c = energy == UvEnergy::mips ? 1 / det : 0.5 * (1 + 1 / (det * det));
       if (energy == UvEnergy::mips && power != 1) {
         const M2 J = mul(edges(uv, f), B);
+        const double base = base_of(s, static_cast<std::size_t>(f));
         c *= power / (2 * base) * std::pow(J.norm2() / det / (2 * base), power - 1);
       }
       if (!(c > 0 && std::isfinite(c))) c = 1;
@@ -387,7 +393,8 @@ struct UvDescent::Impl {
   // H is only semi-definite). With power p != 1, each face's term is (f / 2b)^p of f = mips, whose Hessian
   // c1 H_f + c2 grad f grad f^T (c1, c2 > 0) is projected by projecting H_f: the rank-one term is already
   // positive semi-definite. False when no factorization succeeds.
-  bool newton_direction(const std::vector<Point2>& uv, const Vec2s& g, Vec2s& p, double power, double base) {
+  bool newton_direction(const std::vector<Point2>& uv, const Vec2s& g, Vec2s& p, const DescentSettings& s) {
+    const double power = s.power;
     if (hessian_slot.empty() && !active.empty()) build_hessian_pattern();
     double* values = hessian.valuePtr();
     std::fill(values, values + hessian.nonZeros(), 0.0);
@@ -397,9 +404,10 @@ struct UvDescent::Impl {
       const M2 J = mul(edges(uv, f), B);
       std::array<double, 16> hj = projected_mips_hessian(J.a, J.b, J.c, J.d);
       if (power != 1) {
-        const double det = J.det(), n2 = J.norm2(), b2 = 2 * base, f = n2 / det;
-        const double c1 = power / b2 * std::pow(f / b2, power - 1);
-        const double c2 = power * (power - 1) / (b2 * b2) * std::pow(f / b2, power - 2);
+        const double b2 = 2 * base_of(s, static_cast<std::size_t>(f));
+        const double mips = J.norm2() / J.det();
+        const double c1 = power / b2 * std::pow(mips / b2, power - 1);
+        const double c2 = power * (power - 1) / (b2 * b2) * std::pow(mips / b2, power - 2);
         const M2 G = mips_gradient(J, 1);
         const std::array<double, 4> gf = {G.a, G.b, G.c, G.d};
         for (std::size_t i = 0; i < 4; ++i)
@@ -466,7 +474,7 @@ struct UvDescent::Impl {
       const M2 D = edges(uv, f);
       const M2 J = mul(D, rest_inverse[f]);
       M2 G;
-      const double ef = jacobian_energy(J, s, grad ? &G : nullptr);
+      const double ef = jacobian_energy(J, s, base_of(s, static_cast<std::size_t>(f)), grad ? &G : nullptr);
       if (!std::isfinite(ef)) return kInf;
       e += weight[f] * ef;
       if (!grad) continue;
@@ -550,7 +558,8 @@ int UvDescent::free_vertices() const { return static_cast<int>(impl_->free_verte
 double UvDescent::energy(const std::vector<Point2>& uv, const DescentSettings& settings) const {
   double e = 0;
   for (std::size_t f = 0; f < impl_->faces.size(); ++f) {
-    const double ef = jacobian_energy(mul(impl_->edges(uv, static_cast<int>(f)), impl_->rest_inverse[f]), settings, nullptr);
+    const double ef = jacobian_energy(mul(impl_->edges(uv, static_cast<int>(f)), impl_->rest_inverse[f]), settings,
+                                      base_of(settings, f), nullptr);
     if (!std::isfinite(ef)) return kInf;
     e += impl_->weight[f] * ef;
   }
@@ -576,7 +585,7 @@ DescentOutcome UvDescent::minimize(std::vector<Point2>& uv, const DescentSetting
   constexpr std::size_t kMemory = 8;
   // The preconditioner in the metric of the starting map (once: refreshing it every 5 or 10 steps cost more
   // time for the same mean K and a worse max K on bench_quality).
-  if (flip_free) m.reweight_laplacian(uv, s.energy, s.power, s.power_base);
+  if (flip_free) m.reweight_laplacian(uv, s);
   else if (m.reweighted) m.restore_rest_laplacian();  // the untangle energy's curvature is the rest one's
   std::deque<Vec2s> S, Y;
   std::deque<double> rho;
@@ -590,7 +599,7 @@ DescentOutcome UvDescent::minimize(std::vector<Point2>& uv, const DescentSetting
     check_cancel(s.cancel);
     if (Clock::now() >= s.deadline) break;
     double slope = 0;
-    const bool newton_step = newton && m.newton_direction(uv, g, p, s.power, s.power_base) && (slope = dot(g, p)) < 0;
+    const bool newton_step = newton && m.newton_direction(uv, g, p, s) && (slope = dot(g, p)) < 0;
     if (!newton_step) {
       // Two-loop recursion.
       Vec2s q = g;
