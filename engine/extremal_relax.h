@@ -67,6 +67,8 @@ struct ExtremalRelaxation {
   int points_removed = 0;
   // Diagonals flipped inside refined faces to lower K (engine/refined_flips.h), over all rounds of the kept map.
   int edge_flips = 0;
+  // The interior polish (extremal_relax.cpp) was kept on the answer's last relaxation round.
+  bool polished = false;
   double ms = 0;
   // The pipeline relaxes two starts and keeps the one with the lower max K (engine/pipeline.cpp):
   // "teichmuller" (the paper's composed map) or "harmonic" (the harmonic method's refined map).
@@ -77,6 +79,8 @@ struct ExtremalRelaxation {
 
 struct ExtremalRelaxOptions {
   int max_sweeps = 400;
+  // After the minimax, even out the interior's K (a weighted p-norm descent; see extremal_relax.cpp).
+  bool polish_interior = true;
   double time_budget_ms = 0;  // 0: none (besides the sweeps' cap and the cancel token)
   // The classification's full rotation index per boundary loop vertex (refine()'s rotation). Given, the
   // inserted points a descent would make removable are removed (simplify_again) and the relaxation goes on;

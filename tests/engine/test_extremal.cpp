@@ -367,6 +367,7 @@ struct Comparison {
   std::size_t extremal_inserted = 0;
   int points_removed = 0;  // inserted points the extremal relaxation removed again
   int edge_flips = 0;      // diagonals it flipped inside refined faces
+  bool polished = false;   // its interior polish was kept
 };
 
 // max K over the faces whose three corners are on the boundary loop.
@@ -406,6 +407,7 @@ Comparison compare(const std::string& name, const mapcheck::SourceMesh& src, con
   c.extremal_inserted = e.map.inserted.size();
   c.points_removed = e.extremal.relaxation.points_removed;
   c.edge_flips = e.extremal.relaxation.edge_flips;
+  c.polished = e.extremal.relaxation.polished;
   std::printf("[ extremal ] %-34s max K %.3f (harmonic %.3f); 2 rings in: max/mean %.3f / %.3f = %.3f (harmonic "
               "%.3f / %.3f = %.3f); k %.3f after %d/%d solves, %zu inserted (harmonic %zu)%s\n",
               name.c_str(), c.extremal_all.max, c.harmonic_all.max, c.extremal_inner.max, c.extremal_inner.mean,
@@ -435,6 +437,7 @@ TEST(ExtremalPipeline, SharedMeshesOntoGeneratedTargetsPassTheContract) {
   int unrefined = 0, even = 0, forced = 0;
   int simplified = 0;  // answers whose relaxation removed inserted points again: the checker saw them too
   int reshaped = 0;    // answers whose refined faces got flipped diagonals: likewise
+  int polished = 0;    // answers whose interior polish was kept (it never raises max K: checked above)
   for (const testmeshes::MeshEntry& entry : testmeshes::disk_meshes()) {
     if (entry.extra || entry.long_boundary || entry.triangles > 20000) continue;
     const LoadedMesh& m = pipelinecases::load(entry);
@@ -456,6 +459,7 @@ TEST(ExtremalPipeline, SharedMeshesOntoGeneratedTargetsPassTheContract) {
       }
       simplified += c.points_removed > 0;
       reshaped += c.edge_flips > 0;
+      polished += c.polished;
       // Nothing refined at any time, nothing to flip.
       if (c.extremal_inserted == 0 && c.points_removed == 0) EXPECT_EQ(c.edge_flips, 0) << name;
       if (c.extremal_inserted > 0) continue;  // refined answers: see docs/testing.md (bench_extremal)
@@ -474,6 +478,9 @@ TEST(ExtremalPipeline, SharedMeshesOntoGeneratedTargetsPassTheContract) {
   std::printf("[ extremal ] diagonals flipped inside refined faces in %d answers\n", reshaped);
   EXPECT_GT(simplified, 0);
   EXPECT_GT(reshaped, 0);
+  // Kept on none of these (meshes up to 20k faces) at the time of writing: ExtremalRelaxation's own test
+  // exercises it; bench_extremal's max_registration_partial / circle is the case it was made for.
+  std::printf("[ extremal ] interior polish kept in %d answers\n", polished);
   std::printf("[ extremal ] max K below the harmonic map's in %d of %d cases, worst face fixed (three boundary "
               "corners) in %d\n", lower_max, cases, fixed_worst);
   EXPECT_GE(cases, 20);
@@ -519,6 +526,60 @@ TEST(ExtremalRelaxation, JitteredGridsGetLowerMaxKEverywhereAndStayFlipFree) {
                 "levels\n", n, seed, all0.max, all1.max, inner0.max / inner0.mean, inner1.max / inner1.mean, r.sweeps,
                 r.levels);
   }
+}
+
+// The interior polish (extremal_relax.cpp): a square grid mapped onto the unit square with its bottom side's
+// vertices bunched towards one corner (u = x^e along y = 0, blended to the identity at the top), so that the worst
+// faces sit at the boundary. The same relaxation with and without the polish: both pass the checker and keep
+// the boundary; with it, max K is not higher, and where it was kept max K over the faces off the boundary (no
+// boundary corner) is lower. It must be kept somewhere.
+TEST(ExtremalRelaxation, InteriorPolishLowersTheInteriorsMaxKAndNeverRaisesMaxK) {
+  int kept = 0, cases = 0;
+  for (int n : {12, 16, 20})
+  for (double e : {2.0, 3.0, 4.0}) {
+    const Grid g = flat_square(n);
+    const DiskMesh mesh = validate_mesh(g.raw());
+    RefinedMap start;
+    start.vertices = g.vertices;
+    start.faces = g.faces;
+    for (const Point3& p : g.vertices) start.uv.push_back({std::pow(p.x, 1 + (e - 1) * (1 - p.y)), p.y});
+    if (pipelinecases::count_folded_by_checker(start.uv, start.faces) > 0) continue;
+    ++cases;
+    const std::string where = "grid " + std::to_string(n) + " exponent " + std::to_string(e);
+    RefinedMap plain = start, polished = start;
+    ExtremalRelaxOptions off;
+    off.polish_interior = false;
+    relax_max_dilatation(mesh, g.loop, plain, off);
+    const ExtremalRelaxation r = relax_max_dilatation(mesh, g.loop, polished);
+    std::vector<char> on_loop(g.vertices.size(), 0);
+    for (int v : g.loop) on_loop[v] = 1;
+    auto maxima = [&](const RefinedMap& m) {  // {max K, max K over the faces without a boundary corner}
+      double all = 1, off_boundary = 1;
+      for (const Triangle& t : m.faces) {
+        const double k = face_k(m.vertices[t[0]], m.vertices[t[1]], m.vertices[t[2]], m.uv[t[0]], m.uv[t[1]], m.uv[t[2]]);
+        all = std::max(all, k);
+        if (!on_loop[t[0]] && !on_loop[t[1]] && !on_loop[t[2]]) off_boundary = std::max(off_boundary, k);
+      }
+      return std::pair{all, off_boundary};
+    };
+    for (const RefinedMap* m : {&plain, &polished}) {
+      EXPECT_EQ(pipelinecases::count_folded_by_checker(m->uv, m->faces), 0) << where;
+      for (int v : g.loop) EXPECT_EQ(m->uv[v], start.uv[v]) << where << " boundary vertex " << v;
+    }
+    const auto [plain_all, plain_inner] = maxima(plain);
+    const auto [polished_all, polished_inner] = maxima(polished);
+    EXPECT_LE(polished_all, plain_all * (1 + 1e-9)) << where;
+    if (r.polished) {
+      ++kept;
+      EXPECT_LT(polished_inner, plain_inner) << where;
+    } else {
+      EXPECT_EQ(polished.uv, plain.uv) << where;
+    }
+    std::printf("[ relax ] %s: max K %.3f / %.3f, off the boundary %.3f -> %.3f%s\n", where.c_str(), plain_all,
+                polished_all, plain_inner, polished_inner, r.polished ? " (polished)" : "");
+  }
+  EXPECT_GE(cases, 6);
+  EXPECT_GT(kept, 0);
 }
 
 // Area-weighted histogram of K (face_k above), bins [1, 1.1), [1.1, 1.25), ... [10, inf]; sums to 1.
