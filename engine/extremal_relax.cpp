@@ -24,20 +24,30 @@ using detail::rest_inverse;
 using detail::RestInverse;
 constexpr double kInf = std::numeric_limits<double>::infinity();
 
-// max K over map's faces and over those pinned by the boundary (ExtremalRelaxation::max_after, fixed_max).
-std::pair<double, double> max_k(const RefinedMap& map, const std::vector<int>& loop, const std::vector<Point3>& shape) {
+// max K over map's faces and over those pinned by the boundary (ExtremalRelaxation::max_after, fixed_max), from
+// every face's K.
+std::pair<double, double> maxima(const RefinedMap& map, const std::vector<int>& loop, const std::vector<double>& k) {
   std::vector<char> on_loop(map.uv.size(), 0);
   for (int v : loop) on_loop[static_cast<std::size_t>(v)] = 1;
   double all = 1, fixed = 1;
-  for (const Triangle& t : map.faces) {
-    const double k = face_k(rest_inverse(shape[static_cast<std::size_t>(t[0])], shape[static_cast<std::size_t>(t[1])],
-                                         shape[static_cast<std::size_t>(t[2])]),
-                            map.uv[static_cast<std::size_t>(t[0])], map.uv[static_cast<std::size_t>(t[1])],
-                            map.uv[static_cast<std::size_t>(t[2])]);
-    all = std::max(all, k);
-    if (pinned_by_boundary(t, on_loop)) fixed = std::max(fixed, k);
+  for (std::size_t f = 0; f < map.faces.size(); ++f) {
+    all = std::max(all, k[f]);
+    if (pinned_by_boundary(map.faces[f], on_loop)) fixed = std::max(fixed, k[f]);
   }
   return {all, fixed};
+}
+
+// The same, K measured against shape.
+std::pair<double, double> max_k(const RefinedMap& map, const std::vector<int>& loop, const std::vector<Point3>& shape) {
+  std::vector<double> k(map.faces.size());
+  for (std::size_t f = 0; f < k.size(); ++f) {
+    const Triangle& t = map.faces[f];
+    k[f] = face_k(rest_inverse(shape[static_cast<std::size_t>(t[0])], shape[static_cast<std::size_t>(t[1])],
+                               shape[static_cast<std::size_t>(t[2])]),
+                  map.uv[static_cast<std::size_t>(t[0])], map.uv[static_cast<std::size_t>(t[1])],
+                  map.uv[static_cast<std::size_t>(t[2])]);
+  }
+  return maxima(map, loop, k);
 }
 
 // max K over the source faces with three boundary corners and no inserted point on their edges: every map
@@ -55,6 +65,23 @@ double unrefined_fixed_max(const DiskMesh& source, const RefinedMap& map, const 
                                    map.uv[c(0)], map.uv[c(1)], map.uv[c(2)]));
   }
   return fixed;
+}
+
+// The settings of the flip-free projected Newton descents on powers of mips (relax_round's descent and the
+// interior polish), up to max_iterations steps per power. Newton converges in few steps; a looser stop than
+// L-BFGS needed (1e-6, 100 steps per power) left the same K on bench_extremal's camel_head cases in half the time.
+detail::DescentSettings powered_newton(int max_iterations, const ExtremalRelaxOptions& options, const CancelToken* cancel,
+                                       Clock::time_point t0) {
+  detail::DescentSettings s;
+  s.energy = detail::UvEnergy::mips;
+  s.flip_free = true;
+  s.max_iterations = max_iterations;
+  s.relative_tolerance = 1e-4;
+  s.newton = true;
+  s.cancel = cancel;
+  if (options.time_budget_ms > 0)
+    s.deadline = t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double, std::milli>(options.time_budget_ms));
+  return s;
 }
 
 // Interior polish, after the minimax (relax_round). The minimax settles the worst faces, which sit next to the
@@ -94,16 +121,8 @@ bool polish_interior(const std::vector<Point3>& shape, const std::vector<int>& l
   std::vector<Point2> polygon;
   for (int v : loop) polygon.push_back(map.uv[static_cast<std::size_t>(v)]);
   detail::UvDescent descent(shape, map.faces, fixed, detail::signed_area(polygon));
-  detail::DescentSettings s;
-  s.energy = detail::UvEnergy::mips;
-  s.flip_free = true;
-  s.max_iterations = 10;
-  s.relative_tolerance = 1e-4;
-  s.newton = true;
-  s.cancel = cancel;
+  detail::DescentSettings s = powered_newton(10, options, cancel, t0);
   s.face_base = &base;
-  if (options.time_budget_ms > 0)
-    s.deadline = t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double, std::milli>(options.time_budget_ms));
   const double before = *std::max_element(k.begin(), k.end());
   const std::vector<Point2> start = map.uv;
   for (double p = 2; p <= 256; p *= 2) {
@@ -152,14 +171,8 @@ ExtremalRelaxation relax_round(const DiskMesh& source, const std::vector<int>& l
   };
   std::vector<double> k(nf);
   for (std::size_t f = 0; f < nf; ++f) k[f] = k_of(f);
-  out.max_before = out.max_after = k.empty() ? 1 : *std::max_element(k.begin(), k.end());
-  {
-    std::vector<char> on_loop(nv, 0);
-    for (int v : loop) on_loop[static_cast<std::size_t>(v)] = 1;
-    for (std::size_t f = 0; f < nf; ++f) {
-      if (pinned_by_boundary(map.faces[f], on_loop)) out.fixed_max = std::max(out.fixed_max, k[f]);
-    }
-  }
+  std::tie(out.max_before, out.fixed_max) = maxima(map, loop, k);
+  out.max_after = out.max_before;
   if (nf == 0 || !std::isfinite(out.max_before) || count_non_positive(map.uv, map.faces) > 0) return out;
 
   // Free vertices: as the optimize stage's (see extremal_relax.h).
@@ -214,8 +227,7 @@ ExtremalRelaxation relax_round(const DiskMesh& source, const std::vector<int>& l
     for (int c = 0; c < 3; ++c) {
       const int a = t[c], b = t[(c + 1) % 3];
       poly_ids.push_back(a);
-      const int e = source.topology.find_edge(a, b);
-      if (e < 0) continue;
+      const int e = source.topology.edge(3 * f + c);  // corner c to c + 1
       const auto& points = on_edge[static_cast<std::size_t>(e)];
       if (a < b) {
         for (const auto& tp : points)
@@ -259,15 +271,10 @@ ExtremalRelaxation relax_round(const DiskMesh& source, const std::vector<int>& l
     } else if (edge_of[static_cast<std::size_t>(v) - nv_source] >= 0) {
       for (int h : source.topology.edge_uses(edge_of[static_cast<std::size_t>(v) - nv_source])) faces.push_back(MeshTopology::face_of(h));
     }
-    for (int f : faces) {
-      const Triangle& t = source.faces[static_cast<std::size_t>(f)];
-      for (int c = 0; c < 3; ++c) {
-        const int e = source.topology.find_edge(t[c], t[(c + 1) % 3]);
-        if (e < 0) continue;
-        for (const auto& tp : on_edge[static_cast<std::size_t>(e)])
+    for (int f : faces)
+      for (int c = 0; c < 3; ++c)
+        for (const auto& tp : on_edge[static_cast<std::size_t>(source.topology.edge(3 * f + c))])
           if (tp.second != v) affected.push_back(tp.second);
-      }
-    }
     std::sort(affected.begin(), affected.end());
     affected.erase(std::unique(affected.begin(), affected.end()), affected.end());
   };
@@ -342,17 +349,7 @@ ExtremalRelaxation relax_round(const DiskMesh& source, const std::vector<int>& l
     const std::vector<Point2> start = map.uv;
     const std::vector<double> k_start = k;
     detail::UvDescent descent(shape, map.faces, fixed, detail::signed_area(polygon));
-    detail::DescentSettings s;
-    s.energy = detail::UvEnergy::mips;
-    s.flip_free = true;
-    // Newton converges in few steps; a looser stop than L-BFGS needed (1e-6, 100 steps per power) left the same
-    // K on bench_extremal's camel_head cases in half the time.
-    s.max_iterations = 20;
-    s.relative_tolerance = 1e-4;
-    s.newton = true;
-    s.cancel = cancel;
-    if (options.time_budget_ms > 0)
-      s.deadline = t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double, std::milli>(options.time_budget_ms));
+    detail::DescentSettings s = powered_newton(20, options, cancel, t0);
     auto every_point_needed = [&]() {
       for (std::size_t i = nv_source; i < nv; ++i)
         if (edge_of[i - nv_source] >= 0 && !still_needed_point(static_cast<int>(i))) return false;

@@ -30,7 +30,7 @@ int flip_refined_diagonals(const DiskMesh& source, RefinedMap& map, const std::v
     }
     const int e = edge_of[static_cast<std::size_t>(v) - nv_source];
     for (int c = 0; c < 3; ++c)
-      if (e >= 0 && topo.find_edge(t[c], t[(c + 1) % 3]) == e) return 1u << c;
+      if (e >= 0 && topo.edge(3 * F + c) == e) return 1u << c;
     return 0;
   };
   // The refined source face each map face lies in (-1: an unrefined one, never flipped).

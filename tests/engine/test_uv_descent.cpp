@@ -175,57 +175,64 @@ double triangle_area(const Point3& a, const Point3& b, const Point3& c) {
   return 0.5 * std::sqrt(x * x + y * y + z * z);
 }
 
+// Calls f(start, name, seed) on distorted_grid(n, seed) for n 8, 16 and seeds 1..3, the unfolded ones; says how many.
+template <class F>
+int for_unfolded_grids(F&& f) {
+  int cases = 0;
+  for (int n : {8, 16})
+    for (unsigned seed = 1; seed <= 3; ++seed) {
+      const Start s = distorted_grid(n, seed);
+      if (pipelinecases::count_folded_by_checker(s.uv, s.mesh.faces) > 0) continue;
+      ++cases;
+      f(s, "n " + std::to_string(n) + " seed " + std::to_string(seed), seed);
+    }
+  return cases;
+}
+
 TEST(PoweredMips, IsTheAreaWeightedMeanOfThePowerAndItsDescentLowersTheLargestK) {
   // The energy with power p and base b is the 3D-area-weighted mean of (((K + 1/K) / 2) / b)^p (mips = K + 1/K
   // for any scale of the rest shapes), checked with this file's own K; a flip-free descent with growing p keeps
   // every triangle positive and the boundary bit for bit, and lowers the largest K of the start (over the faces
   // with a free corner).
-  int cases = 0;
-  for (int n : {8, 16}) {
-    for (unsigned seed = 1; seed <= 3; ++seed) {
-      const Start s = distorted_grid(n, seed);
-      if (pipelinecases::count_folded_by_checker(s.uv, s.mesh.faces) > 0) continue;
-      ++cases;
-      const std::string where = "n " + std::to_string(n) + " seed " + std::to_string(seed);
-      // Over the faces with a free corner (the others, e.g. at the grid's corners, cannot change).
-      auto max_k = [&](const std::vector<Point2>& uv) {
-        double m = 1;
-        for (const Triangle& t : s.mesh.faces)
-          if (!s.pinned[t[0]] || !s.pinned[t[1]] || !s.pinned[t[2]])
-            m = std::max(m, triangle_k(s.mesh.vertices[t[0]], s.mesh.vertices[t[1]], s.mesh.vertices[t[2]], uv[t[0]],
-                                     uv[t[1]], uv[t[2]]));
-        return m;
-      };
-      const double k0 = max_k(s.uv), base = 0.5 * (k0 + 1 / k0);
-      detail::UvDescent descent(s.mesh.vertices, s.mesh.faces, s.pinned, 1.0);
-      detail::DescentSettings settings;
-      settings.energy = detail::UvEnergy::mips;
-      settings.power_base = base;
-      for (double p : {1.0, 3.0, 8.0}) {
-        settings.power = p;
-        double sum = 0, area = 0;
-        for (const Triangle& t : s.mesh.faces) {
-          const Point3 &a = s.mesh.vertices[t[0]], &b = s.mesh.vertices[t[1]], &c = s.mesh.vertices[t[2]];
-          const double k = triangle_k(a, b, c, s.uv[t[0]], s.uv[t[1]], s.uv[t[2]]);
-          const double w = triangle_area(a, b, c);
-          sum += w * (p == 1 ? k + 1 / k : std::pow(0.5 * (k + 1 / k) / base, p));
-          area += w;
-        }
-        EXPECT_NEAR(descent.energy(s.uv, settings), sum / area, 1e-9 * sum / area) << where << " p " << p;
+  const int cases = for_unfolded_grids([&](const Start& s, const std::string& where, unsigned) {
+    // Over the faces with a free corner (the others, e.g. at the grid's corners, cannot change).
+    auto max_k = [&](const std::vector<Point2>& uv) {
+      double m = 1;
+      for (const Triangle& t : s.mesh.faces)
+        if (!s.pinned[t[0]] || !s.pinned[t[1]] || !s.pinned[t[2]])
+          m = std::max(m, triangle_k(s.mesh.vertices[t[0]], s.mesh.vertices[t[1]], s.mesh.vertices[t[2]], uv[t[0]],
+                                   uv[t[1]], uv[t[2]]));
+      return m;
+    };
+    const double k0 = max_k(s.uv), base = 0.5 * (k0 + 1 / k0);
+    detail::UvDescent descent(s.mesh.vertices, s.mesh.faces, s.pinned, 1.0);
+    detail::DescentSettings settings;
+    settings.energy = detail::UvEnergy::mips;
+    settings.power_base = base;
+    for (double p : {1.0, 3.0, 8.0}) {
+      settings.power = p;
+      double sum = 0, area = 0;
+      for (const Triangle& t : s.mesh.faces) {
+        const Point3 &a = s.mesh.vertices[t[0]], &b = s.mesh.vertices[t[1]], &c = s.mesh.vertices[t[2]];
+        const double k = triangle_k(a, b, c, s.uv[t[0]], s.uv[t[1]], s.uv[t[2]]);
+        const double w = triangle_area(a, b, c);
+        sum += w * (p == 1 ? k + 1 / k : std::pow(0.5 * (k + 1 / k) / base, p));
+        area += w;
       }
-      std::vector<Point2> uv = s.uv;
-      settings.max_iterations = 100;
-      for (double p : {2.0, 4.0, 8.0, 16.0}) {
-        settings.power = p;
-        const double before = descent.energy(uv, settings);
-        const detail::DescentOutcome out = descent.minimize(uv, settings);
-        EXPECT_LT(out.energy_after, before) << where << " p " << p << ": the descent did not lower its energy";
-      }
-      EXPECT_EQ(pipelinecases::count_folded_by_checker(uv, s.mesh.faces), 0) << where;
-      for (int v : s.mesh.boundary_loop) EXPECT_TRUE(uv[v] == s.uv[v]) << where << ": boundary vertex " << v;
-      EXPECT_LT(max_k(uv), k0) << where;
+      EXPECT_NEAR(descent.energy(s.uv, settings), sum / area, 1e-9 * sum / area) << where << " p " << p;
     }
-  }
+    std::vector<Point2> uv = s.uv;
+    settings.max_iterations = 100;
+    for (double p : {2.0, 4.0, 8.0, 16.0}) {
+      settings.power = p;
+      const double before = descent.energy(uv, settings);
+      const detail::DescentOutcome out = descent.minimize(uv, settings);
+      EXPECT_LT(out.energy_after, before) << where << " p " << p << ": the descent did not lower its energy";
+    }
+    EXPECT_EQ(pipelinecases::count_folded_by_checker(uv, s.mesh.faces), 0) << where;
+    for (int v : s.mesh.boundary_loop) EXPECT_TRUE(uv[v] == s.uv[v]) << where << ": boundary vertex " << v;
+    EXPECT_LT(max_k(uv), k0) << where;
+  });
   ASSERT_GE(cases, 4);
 }
 
@@ -233,64 +240,57 @@ TEST(PoweredMips, WithPerFaceBasesIsTheWeightedPNormAndItsDescentKeepsItsPromise
   // DescentSettings::face_base: face f's term is (((K + 1/K) / 2) / base_f)^p (method extremal's interior
   // polish). Checked with this file's own K over random per-face bases; with every base equal it is the single
   // power_base's energy; Newton and L-BFGS both lower it, keep every triangle positive and the boundary bit for bit.
-  int cases = 0;
-  for (int n : {8, 16}) {
-    for (unsigned seed = 1; seed <= 3; ++seed) {
-      const Start s = distorted_grid(n, seed);
-      if (pipelinecases::count_folded_by_checker(s.uv, s.mesh.faces) > 0) continue;
-      ++cases;
-      const std::string where = "n " + std::to_string(n) + " seed " + std::to_string(seed);
-      // Bases around the start's largest (K + 1/K) / 2 (as the polish's, which are near the faces' own), so that
-      // the terms neither overflow nor vanish.
-      double top = 1;
-      for (const Triangle& t : s.mesh.faces) {
-        const double k = triangle_k(s.mesh.vertices[t[0]], s.mesh.vertices[t[1]], s.mesh.vertices[t[2]], s.uv[t[0]],
-                                    s.uv[t[1]], s.uv[t[2]]);
-        top = std::max(top, 0.5 * (k + 1 / k));
-      }
-      std::mt19937 rng(seed);
-      std::uniform_real_distribution<double> pick(0.7 * top, 1.3 * top);
-      std::vector<double> bases(s.mesh.faces.size());
-      for (double& b : bases) b = pick(rng);
-      detail::UvDescent descent(s.mesh.vertices, s.mesh.faces, s.pinned, 1.0);
-      detail::DescentSettings settings;
-      settings.energy = detail::UvEnergy::mips;
-      settings.face_base = &bases;
-      for (double p : {2.0, 8.0}) {
-        settings.power = p;
-        double sum = 0, area = 0;
-        for (std::size_t f = 0; f < s.mesh.faces.size(); ++f) {
-          const Triangle& t = s.mesh.faces[f];
-          const Point3 &a = s.mesh.vertices[t[0]], &b = s.mesh.vertices[t[1]], &c = s.mesh.vertices[t[2]];
-          const double k = triangle_k(a, b, c, s.uv[t[0]], s.uv[t[1]], s.uv[t[2]]);
-          const double w = triangle_area(a, b, c);
-          sum += w * std::pow(0.5 * (k + 1 / k) / bases[f], p);
-          area += w;
-        }
-        EXPECT_NEAR(descent.energy(s.uv, settings), sum / area, 1e-9 * sum / area) << where << " p " << p;
-      }
-      std::vector<double> same(s.mesh.faces.size(), 1.7);
-      detail::DescentSettings uniform = settings;
-      uniform.face_base = &same;
-      detail::DescentSettings single = settings;
-      single.face_base = nullptr;
-      single.power_base = 1.7;
-      EXPECT_DOUBLE_EQ(descent.energy(s.uv, uniform), descent.energy(s.uv, single)) << where;
-      for (bool newton : {true, false}) {
-        std::vector<Point2> uv = s.uv;
-        settings.newton = newton;
-        settings.max_iterations = 30;
-        for (double p : {2.0, 4.0, 8.0, 16.0}) {
-          settings.power = p;
-          const double before = descent.energy(uv, settings);
-          const detail::DescentOutcome out = descent.minimize(uv, settings);
-          EXPECT_LT(out.energy_after, before) << where << " newton " << newton << " p " << p;
-        }
-        EXPECT_EQ(pipelinecases::count_folded_by_checker(uv, s.mesh.faces), 0) << where << " newton " << newton;
-        for (int v : s.mesh.boundary_loop) EXPECT_TRUE(uv[v] == s.uv[v]) << where << ": boundary vertex " << v;
-      }
+  const int cases = for_unfolded_grids([&](const Start& s, const std::string& where, unsigned seed) {
+    // Bases around the start's largest (K + 1/K) / 2 (as the polish's, which are near the faces' own), so that
+    // the terms neither overflow nor vanish.
+    double top = 1;
+    for (const Triangle& t : s.mesh.faces) {
+      const double k = triangle_k(s.mesh.vertices[t[0]], s.mesh.vertices[t[1]], s.mesh.vertices[t[2]], s.uv[t[0]],
+                                  s.uv[t[1]], s.uv[t[2]]);
+      top = std::max(top, 0.5 * (k + 1 / k));
     }
-  }
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> pick(0.7 * top, 1.3 * top);
+    std::vector<double> bases(s.mesh.faces.size());
+    for (double& b : bases) b = pick(rng);
+    detail::UvDescent descent(s.mesh.vertices, s.mesh.faces, s.pinned, 1.0);
+    detail::DescentSettings settings;
+    settings.energy = detail::UvEnergy::mips;
+    settings.face_base = &bases;
+    for (double p : {2.0, 8.0}) {
+      settings.power = p;
+      double sum = 0, area = 0;
+      for (std::size_t f = 0; f < s.mesh.faces.size(); ++f) {
+        const Triangle& t = s.mesh.faces[f];
+        const Point3 &a = s.mesh.vertices[t[0]], &b = s.mesh.vertices[t[1]], &c = s.mesh.vertices[t[2]];
+        const double k = triangle_k(a, b, c, s.uv[t[0]], s.uv[t[1]], s.uv[t[2]]);
+        const double w = triangle_area(a, b, c);
+        sum += w * std::pow(0.5 * (k + 1 / k) / bases[f], p);
+        area += w;
+      }
+      EXPECT_NEAR(descent.energy(s.uv, settings), sum / area, 1e-9 * sum / area) << where << " p " << p;
+    }
+    std::vector<double> same(s.mesh.faces.size(), 1.7);
+    detail::DescentSettings uniform = settings;
+    uniform.face_base = &same;
+    detail::DescentSettings single = settings;
+    single.face_base = nullptr;
+    single.power_base = 1.7;
+    EXPECT_DOUBLE_EQ(descent.energy(s.uv, uniform), descent.energy(s.uv, single)) << where;
+    for (bool newton : {true, false}) {
+      std::vector<Point2> uv = s.uv;
+      settings.newton = newton;
+      settings.max_iterations = 30;
+      for (double p : {2.0, 4.0, 8.0, 16.0}) {
+        settings.power = p;
+        const double before = descent.energy(uv, settings);
+        const detail::DescentOutcome out = descent.minimize(uv, settings);
+        EXPECT_LT(out.energy_after, before) << where << " newton " << newton << " p " << p;
+      }
+      EXPECT_EQ(pipelinecases::count_folded_by_checker(uv, s.mesh.faces), 0) << where << " newton " << newton;
+      for (int v : s.mesh.boundary_loop) EXPECT_TRUE(uv[v] == s.uv[v]) << where << ": boundary vertex " << v;
+    }
+  });
   ASSERT_GE(cases, 4);
 }
 
