@@ -60,8 +60,9 @@ struct DescentSettings {
   // extremal); power_base (the starting map's worst mips / 2, say) keeps the terms from overflowing.
   double power = 1;
   double power_base = 1;
-  // mips with power p: when given (one per face), face f's term is (mips / (2 face_base[f]))^p instead, a
-  // weighted p-norm: a face whose base is its own mips starts at 1 and can hardly rise at a large p.
+  // mips with power p: when given (one per face of the constructor's list, each > 0), face f's term is
+  // (mips / (2 face_base[f]))^p instead, a weighted p-norm: a face whose base is its own mips / 2 starts at 1
+  // and can hardly rise at a large p.
   const std::vector<double>* face_base = nullptr;
   int max_iterations = 100;
   double relative_tolerance = 1e-7;  // stop when one iteration lowers the energy by less than this fraction

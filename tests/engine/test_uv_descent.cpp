@@ -281,6 +281,9 @@ TEST(PoweredMips, WithPerFaceBasesIsTheWeightedPNormAndItsDescentKeepsItsPromise
       std::vector<Point2> uv = s.uv;
       settings.newton = newton;
       settings.max_iterations = 30;
+      // Up to p = 16: beyond, energy() (the mean over every face) is ruled by the grid's corner faces, whose
+      // corners are all pinned, and cannot show the drop of the free faces' terms (at p = 32 the descent still
+      // lowers their sum, from about 1e-23, while the mean stays at 1e-2).
       for (double p : {2.0, 4.0, 8.0, 16.0}) {
         settings.power = p;
         const double before = descent.energy(uv, settings);
