@@ -27,6 +27,9 @@
 // first; when the worst level stops dropping (less than a relative 1e-3 per sweep) its faces are frozen (no
 // later move may raise them) and the next level down is treated, so the worst faces away from a stuck spot
 // (often next to the boundary) are lowered too. Capped by sweeps and about 2,000 face evaluations per face.
+// After it the interior is polished (a flip-free descent on a weighted p-norm of K over the freely movable
+// vertices) and, where its K is still uneven, the minimax runs again with the faces touching the boundary
+// frozen, so that the interior's worst faces get moves of their own.
 //
 // Free vertices: every vertex but the boundary (the descent moves only those that move freely, below). An inserted vertex moves in uv only (its 3D point stays on its
 // edge, contract point 1). The refinement's minimality (contract point 6, paper 4 Fig. 11) is kept: whether an
@@ -69,6 +72,9 @@ struct ExtremalRelaxation {
   int edge_flips = 0;
   // The interior polish (extremal_relax.cpp) was kept on the answer's last relaxation round.
   bool polished = false;
+  // Vertex moves kept by the interior minimax after the polish (faces touching the boundary frozen), on the
+  // answer's last round; counted in moves too.
+  int interior_moves = 0;
   double ms = 0;
   // The pipeline relaxes two starts and keeps the one with the lower max K (engine/pipeline.cpp):
   // "teichmuller" (the paper's composed map) or "harmonic" (the harmonic method's refined map).
@@ -79,7 +85,8 @@ struct ExtremalRelaxation {
 
 struct ExtremalRelaxOptions {
   int max_sweeps = 400;
-  // After the minimax, even out the interior's K (a weighted p-norm descent; see extremal_relax.cpp).
+  // After the minimax, even out the interior's K (a weighted p-norm descent, then the minimax again over the
+  // faces off the boundary; see extremal_relax.cpp).
   bool polish_interior = true;
   double time_budget_ms = 0;  // 0: none (besides the sweeps' cap and the cancel token)
   // The classification's full rotation index per boundary loop vertex (refine()'s rotation). Given, the

@@ -671,6 +671,7 @@ ordered_json detail::result_json(const lipmap::ParametrizeResult& r, bool big) {
                                      {"points_removed", e.relaxation.points_removed},
                                      {"edge_flips", e.relaxation.edge_flips},
                                      {"interior_polished", e.relaxation.polished},
+                                     {"interior_moves", e.relaxation.interior_moves},
                                      {"start", e.relaxation.start},
                                      {"other_start_max_k", finite_or_null(e.relaxation.other_start_max)}}}};
   }
