@@ -29,7 +29,9 @@
 // (often next to the boundary) are lowered too. Capped by sweeps and about 2,000 face evaluations per face.
 // After it the interior is polished (a flip-free descent on a weighted p-norm of K over the freely movable
 // vertices) and, where its K is still uneven, the minimax runs again with the faces touching the boundary
-// frozen, so that the interior's worst faces get moves of their own.
+// frozen, so that the interior's worst faces get moves of their own; there inserted points may also slide along
+// their source edges (t changes, the point stays on its edge between its neighbours there): that reshapes the
+// refined faces' 3D triangles, and neither local injectivity nor minimality depends on it.
 //
 // Free vertices: every vertex but the boundary (the descent moves only those that move freely, below). An inserted vertex moves in uv only (its 3D point stays on its
 // edge, contract point 1). The refinement's minimality (contract point 6, paper 4 Fig. 11) is kept: whether an
@@ -72,8 +74,8 @@ struct ExtremalRelaxation {
   int edge_flips = 0;
   // The interior polish (extremal_relax.cpp) was kept on the answer's last relaxation round.
   bool polished = false;
-  // Vertex moves kept by the interior minimax after the polish (faces touching the boundary frozen), on the
-  // answer's last round; counted in moves too.
+  // Vertex moves kept by the interior minimax after the polish (faces touching the boundary frozen; uv moves
+  // and inserted points slid along their source edges), on the answer's last round; counted in moves too.
   int interior_moves = 0;
   double ms = 0;
   // The pipeline relaxes two starts and keeps the one with the lower max K (engine/pipeline.cpp):
