@@ -533,6 +533,19 @@ TEST(ExtremalRelaxation, JitteredGridsGetLowerMaxKEverywhereAndStayFlipFree) {
 // faces sit at the boundary. The same relaxation with and without the polish: both pass the checker and keep
 // the boundary; with it, max K is not higher, and where it was kept max K over the faces off the boundary (no
 // boundary corner) is lower. It must be kept somewhere.
+// {max K, max K over the faces without a corner on the boundary loop} of m, K by face_k above.
+std::pair<double, double> max_k_on_and_off_boundary(const RefinedMap& m, const std::vector<int>& loop) {
+  std::vector<char> on_loop(m.uv.size(), 0);
+  for (int v : loop) on_loop[static_cast<std::size_t>(v)] = 1;
+  double all = 1, off_boundary = 1;
+  for (const Triangle& t : m.faces) {
+    const double k = face_k(m.vertices[t[0]], m.vertices[t[1]], m.vertices[t[2]], m.uv[t[0]], m.uv[t[1]], m.uv[t[2]]);
+    all = std::max(all, k);
+    if (!on_loop[t[0]] && !on_loop[t[1]] && !on_loop[t[2]]) off_boundary = std::max(off_boundary, k);
+  }
+  return {all, off_boundary};
+}
+
 TEST(ExtremalRelaxation, InteriorPolishLowersTheInteriorsMaxKAndNeverRaisesMaxK) {
   int kept = 0, cases = 0, moved = 0;
   for (int n : {12, 16, 20})
@@ -551,17 +564,7 @@ TEST(ExtremalRelaxation, InteriorPolishLowersTheInteriorsMaxKAndNeverRaisesMaxK)
     off.polish_interior = false;
     relax_max_dilatation(mesh, g.loop, plain, off);
     const ExtremalRelaxation r = relax_max_dilatation(mesh, g.loop, polished);
-    std::vector<char> on_loop(g.vertices.size(), 0);
-    for (int v : g.loop) on_loop[v] = 1;
-    auto maxima = [&](const RefinedMap& m) {  // {max K, max K over the faces without a boundary corner}
-      double all = 1, off_boundary = 1;
-      for (const Triangle& t : m.faces) {
-        const double k = face_k(m.vertices[t[0]], m.vertices[t[1]], m.vertices[t[2]], m.uv[t[0]], m.uv[t[1]], m.uv[t[2]]);
-        all = std::max(all, k);
-        if (!on_loop[t[0]] && !on_loop[t[1]] && !on_loop[t[2]]) off_boundary = std::max(off_boundary, k);
-      }
-      return std::pair{all, off_boundary};
-    };
+    auto maxima = [&](const RefinedMap& m) { return max_k_on_and_off_boundary(m, g.loop); };
     for (const RefinedMap* m : {&plain, &polished}) {
       EXPECT_EQ(pipelinecases::count_folded_by_checker(m->uv, m->faces), 0) << where;
       for (int v : g.loop) EXPECT_EQ(m->uv[v], start.uv[v]) << where << " boundary vertex " << v;
@@ -611,17 +614,7 @@ TEST(ExtremalRelaxation, InteriorMinimaxOnRefinedMapsNeverRaisesMaxKOnOrOffTheBo
     off.polish_interior = false;
     relax_max_dilatation(source, r.boundary_loop, plain.map, off);
     const ExtremalRelaxation rel = relax_max_dilatation(source, r.boundary_loop, polished.map);
-    std::vector<char> on_loop(r.map.uv.size(), 0);
-    for (int v : r.boundary_loop) on_loop[static_cast<std::size_t>(v)] = 1;
-    auto maxima = [&](const RefinedMap& mp) {  // {max K, max K over the faces without a boundary corner}
-      double all = 1, off_boundary = 1;
-      for (const Triangle& f : mp.faces) {
-        const double k = face_k(mp.vertices[f[0]], mp.vertices[f[1]], mp.vertices[f[2]], mp.uv[f[0]], mp.uv[f[1]], mp.uv[f[2]]);
-        all = std::max(all, k);
-        if (!on_loop[f[0]] && !on_loop[f[1]] && !on_loop[f[2]]) off_boundary = std::max(off_boundary, k);
-      }
-      return std::pair{all, off_boundary};
-    };
+    auto maxima = [&](const RefinedMap& mp) { return max_k_on_and_off_boundary(mp, r.boundary_loop); };
     for (const ParametrizeResult* a : {&plain, &polished}) {
       const mapcheck::Report rep = pipelinecases::check(m, *t, *a);
       EXPECT_TRUE(rep.ok()) << name << "\n" << rep.str();
