@@ -67,6 +67,21 @@ double unrefined_fixed_max(const DiskMesh& source, const RefinedMap& map, const 
   return fixed;
 }
 
+// Whether face t has a corner on the boundary (pinned 2, see relax_round): the interior polish and the interior
+// minimax leave such faces out of the interior.
+bool touches_boundary(const Triangle& t, const std::vector<char>& pinned) {
+  return pinned[static_cast<std::size_t>(t[0])] == 2 || pinned[static_cast<std::size_t>(t[1])] == 2 ||
+         pinned[static_cast<std::size_t>(t[2])] == 2;
+}
+
+// The boundary polygon's signed area under map (UvDescent scales the rest shapes to it).
+double polygon_area(const RefinedMap& map, const std::vector<int>& loop) {
+  std::vector<Point2> polygon;
+  polygon.reserve(loop.size());
+  for (int v : loop) polygon.push_back(map.uv[static_cast<std::size_t>(v)]);
+  return detail::signed_area(polygon);
+}
+
 // The settings of the flip-free projected Newton descents on powers of mips (relax_round's descent and the
 // interior polish), up to max_iterations steps per power. Newton converges in few steps; a looser stop than
 // L-BFGS needed (1e-6, 100 steps per power) left the same K on bench_extremal's camel_head cases in half the time.
@@ -110,17 +125,16 @@ bool polish_interior(const std::vector<Point3>& shape, const std::vector<int>& l
     if (!fixed[corner(f, 0)] || !fixed[corner(f, 1)] || !fixed[corner(f, 2)]) sum += k[f], ++count;
   if (count == 0) return false;
   const double mean = sum / count, target_k = 1.25 * mean, target = 0.5 * (target_k + 1 / target_k);
-  const auto touches = [&](std::size_t f) { return pinned[corner(f, 0)] == 2 || pinned[corner(f, 1)] == 2 || pinned[corner(f, 2)] == 2; };
+  std::vector<char> touches(nf);
   std::vector<double> base(nf);
   double interior_before = 1;  // max K over the faces off the boundary
   for (std::size_t f = 0; f < nf; ++f) {
-    base[f] = touches(f) ? std::max(target, 0.5 * (k[f] + 1 / k[f])) : target;
-    if (!touches(f)) interior_before = std::max(interior_before, k[f]);
+    touches[f] = touches_boundary(map.faces[f], pinned);
+    base[f] = touches[f] ? std::max(target, 0.5 * (k[f] + 1 / k[f])) : target;
+    if (!touches[f]) interior_before = std::max(interior_before, k[f]);
   }
   if (!(interior_before > 1.5 * mean)) return false;
-  std::vector<Point2> polygon;
-  for (int v : loop) polygon.push_back(map.uv[static_cast<std::size_t>(v)]);
-  detail::UvDescent descent(shape, map.faces, fixed, detail::signed_area(polygon));
+  detail::UvDescent descent(shape, map.faces, fixed, polygon_area(map, loop));
   detail::DescentSettings s = powered_newton(10, options, cancel, t0);
   s.face_base = &base;
   const double before = *std::max_element(k.begin(), k.end());
@@ -138,7 +152,7 @@ bool polish_interior(const std::vector<Point3>& shape, const std::vector<int>& l
     double after = 1, interior_after = 1;
     for (std::size_t f = 0; f < nf; ++f) {
       after = std::max(after, k_new[f] = face_k(inv[f], map.uv[corner(f, 0)], map.uv[corner(f, 1)], map.uv[corner(f, 2)]));
-      if (!touches(f)) interior_after = std::max(interior_after, k_new[f]);
+      if (!touches[f]) interior_after = std::max(interior_after, k_new[f]);
     }
     if (after <= before && interior_after < interior_before && count_non_positive(map.uv, map.faces) == 0) {
       k = std::move(k_new);
@@ -332,8 +346,6 @@ ExtremalRelaxation relax_round(const DiskMesh& source, const std::vector<int>& l
     std::vector<char> fixed(nv);
     for (std::size_t v = 0; v < nv; ++v) fixed[v] = conditional ? pinned[v] == 2 : pinned[v] != 0;
     if (std::all_of(fixed.begin(), fixed.end(), [](char c) { return c != 0; })) return Descent::none;
-    std::vector<Point2> polygon;
-    for (int v : loop) polygon.push_back(map.uv[static_cast<std::size_t>(v)]);
     // max K over the faces this descent can change (a corner not fixed): a worst face that it cannot move (all
     // corners fixed) would otherwise set the power's base and leave every other term near 0.
     auto movable_level = [&]() {
@@ -348,7 +360,7 @@ ExtremalRelaxation relax_round(const DiskMesh& source, const std::vector<int>& l
     const double before = movable_level();
     const std::vector<Point2> start = map.uv;
     const std::vector<double> k_start = k;
-    detail::UvDescent descent(shape, map.faces, fixed, detail::signed_area(polygon));
+    detail::UvDescent descent(shape, map.faces, fixed, polygon_area(map, loop));
     detail::DescentSettings s = powered_newton(20, options, cancel, t0);
     auto every_point_needed = [&]() {
       for (std::size_t i = nv_source; i < nv; ++i)
@@ -594,8 +606,7 @@ ExtremalRelaxation relax_round(const DiskMesh& source, const std::vector<int>& l
     double sum = 0, interior_max = 1;
     int count = 0;
     for (std::size_t f = 0; f < nf; ++f) {
-      frozen[f] = 0;
-      for (int v : map.faces[f]) frozen[f] = frozen[f] || pinned[static_cast<std::size_t>(v)] == 2;
+      frozen[f] = touches_boundary(map.faces[f], pinned);
       if (!frozen[f]) sum += k[f], ++count, interior_max = std::max(interior_max, k[f]);
     }
     if (count > 0 && interior_max > 1.5 * sum / count) {
