@@ -156,8 +156,10 @@ struct Row {
   std::string verdict = "-";
   long long vertices = 0, triangles = 0, boundary = 0, inserted = -1, flipped_before = -1;
   double triangulation = -1, maps = -1, compose_refine = -1, untangle_optimize = -1, total = -1, other = -1;
-  // Medians per stage: validate, classify, target_mesh, intermediate_maps, compose, refine, verify, quality.
-  double stage[8] = {-1, -1, -1, -1, -1, -1, -1, -1};
+  // Medians per stage: validate, classify, target_mesh, intermediate_maps, compose, refine, verify, quality,
+  // untangle, optimize.
+  static constexpr int kStages = 10;
+  double stage[kStages] = {-1, -1, -1, -1, -1, -1, -1, -1, -1, -1};
   long long target_vertices = -1;
   long rss_kb = -1;
   std::string source_solution = "-", target_solution = "-";
@@ -178,7 +180,7 @@ Row run_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs, double 
   b.positions = t.positions;
   if (t.rotation_indices) b.rotation_indices = std::vector<long long>(t.rotation_indices->begin(), t.rotation_indices->end());
   const lipmap::ParametrizeOptions& options = g_options;
-  std::vector<double> tri, maps, cr, uo, total, other, stage[8];
+  std::vector<double> tri, maps, cr, uo, total, other, stage[Row::kStages];
   lipmap::CancelToken token;
   token.set_deadline(Clock::now() + std::chrono::milliseconds(static_cast<long long>(budget_s * 1000)));
   for (int r = 0; r < runs; ++r) {
@@ -191,9 +193,9 @@ Row run_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs, double 
       uo.push_back(s.untangle + s.optimize);
       total.push_back(s.total);
       other.push_back(s.validate + s.verify + s.quality);
-      const double each[8] = {s.validate, s.classify, s.target_mesh, s.intermediate_maps,
-                              s.compose, s.refine, s.verify, s.quality};
-      for (int i = 0; i < 8; ++i) stage[i].push_back(each[i]);
+      const double each[Row::kStages] = {s.validate, s.classify, s.target_mesh, s.intermediate_maps, s.compose,
+                                         s.refine,   s.verify,   s.quality,     s.untangle,          s.optimize};
+      for (int i = 0; i < Row::kStages; ++i) stage[i].push_back(each[i]);
       row.target_vertices = res.target_mesh.vertices;
       row.inserted = static_cast<long long>(res.map.inserted.size());
       row.flipped_before = res.map.flipped_before_refinement;
@@ -217,7 +219,7 @@ Row run_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs, double 
   row.untangle_optimize = median(uo);
   row.total = median(total);
   row.other = median(other);
-  for (int i = 0; i < 8; ++i) row.stage[i] = median(stage[i]);
+  for (int i = 0; i < Row::kStages; ++i) row.stage[i] = median(stage[i]);
   struct rusage ru {};
   getrusage(RUSAGE_SELF, &ru);
   row.rss_kb = ru.ru_maxrss;
@@ -316,8 +318,8 @@ Row decode(const std::string& line) {
   r.target_solution = f[14];
   r.error = f[15];
   r.untangle_optimize = std::atof(f[16].c_str());
-  for (int i = 0; i < 8 && 17 + i < static_cast<int>(f.size()); ++i) r.stage[i] = std::atof(f[17 + i].c_str());
-  if (f.size() > 25) r.target_vertices = std::atoll(f[25].c_str());
+  for (int i = 0; i < Row::kStages && 17 + i < static_cast<int>(f.size()); ++i) r.stage[i] = std::atof(f[17 + i].c_str());
+  if (f.size() > 17 + Row::kStages) r.target_vertices = std::atoll(f[17 + Row::kStages].c_str());
   return r;
 }
 
@@ -391,10 +393,11 @@ MeshResult bench_mesh(const Mesh& m, int runs, double budget_s, bool stages) {
                 r.rss_kb / 1024.0, cell_ms(cgal_ms).c_str(), ratio);
     if (stages)
       std::printf("  stages ms: validate %s, classify %s, target_mesh %s (%lld vertices), intermediate_maps %s, "
-                  "compose %s, refine %s, verify %s, quality %s\n",
+                  "compose %s, refine %s, verify %s, quality %s, untangle %s, optimize %s\n",
                   cell_ms(r.stage[0]).c_str(), cell_ms(r.stage[1]).c_str(), cell_ms(r.stage[2]).c_str(),
                   r.target_vertices, cell_ms(r.stage[3]).c_str(), cell_ms(r.stage[4]).c_str(),
-                  cell_ms(r.stage[5]).c_str(), cell_ms(r.stage[6]).c_str(), cell_ms(r.stage[7]).c_str());
+                  cell_ms(r.stage[5]).c_str(), cell_ms(r.stage[6]).c_str(), cell_ms(r.stage[7]).c_str(),
+                  cell_ms(r.stage[8]).c_str(), cell_ms(r.stage[9]).c_str());
     std::fflush(stdout);
   }
   if (!cgal_error.empty()) std::printf("%-26s CGAL Tutte failed: %s\n", name.c_str(), cgal_error.c_str());
