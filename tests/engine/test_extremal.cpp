@@ -489,7 +489,7 @@ TEST(ExtremalPipeline, SharedMeshesOntoGeneratedTargetsPassTheContract) {
 // The one shared case above 20k faces whose answer is unrefined and whose interior the first polish could not
 // even out (mannequin_devil, 25,888 faces, onto a weak_fan target: max K / mean K two rings in 1.900 before the
 // polish with the first ring frozen, extremal_relax.cpp): the answer passes the contract, keeps max K below the
-// harmonic map's and is within 1.5 two rings in, by the tests' own K and ring distances. About 30 s.
+// harmonic map's and is within 1.5 two rings in, by the tests' own K and ring distances. About 45 s (Release).
 TEST(ExtremalPipeline, SharedMannequinDevilOntoWeakFanIsEvenTwoRingsIn) {
   const LoadedMesh& m = pipelinecases::load(testmeshes::entry("mannequin-devil.off"));
   const auto t = targetgen::make_target(Kind::weak_fan, pipelinecases::ref(m));
