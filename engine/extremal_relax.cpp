@@ -143,15 +143,8 @@ bool polish_interior(const std::vector<Point3>& shape, const std::vector<int>& l
   const double before = *std::max_element(k.begin(), k.end());
   const std::vector<Point2> start = map.uv;
   std::vector<double> k_new(nf);
-  for (int attempt = 0; attempt < 2; ++attempt) {
-    if (attempt == 1) {
-      bool more = false;
-      for (std::size_t f = 0; f < nf; ++f)
-        if (touches[f])
-          for (int i = 0; i < 3; ++i)
-            if (!fixed[corner(f, i)]) fixed[corner(f, i)] = 1, more = true;
-      if (!more) break;
-    }
+  // One descent with the vertices in fixed pinned; true when (a fraction of) it is kept, map.uv and k updated.
+  auto descend_and_keep = [&]() {
     map.uv = start;
     detail::UvDescent descent(shape, map.faces, fixed, polygon_area(map, loop));
     detail::DescentSettings s = powered_newton(10, options, cancel, t0);
@@ -161,7 +154,7 @@ bool polish_interior(const std::vector<Point3>& shape, const std::vector<int>& l
       descent.minimize(map.uv, s);
     }
     const std::vector<Point2> polished = map.uv;
-    if (polished == start) continue;
+    if (polished == start) return false;
     for (double t = 1; t > 0.1; t *= 0.5) {
       for (std::size_t v = 0; v < nv; ++v)
         map.uv[v] = {start[v].x + t * (polished[v].x - start[v].x), start[v].y + t * (polished[v].y - start[v].y)};
@@ -175,7 +168,16 @@ bool polish_interior(const std::vector<Point3>& shape, const std::vector<int>& l
         return true;
       }
     }
-  }
+    return false;
+  };
+  if (descend_and_keep()) return true;
+  // Refused: again with the first ring fixed too, when that fixes anything more.
+  bool more = false;
+  for (std::size_t f = 0; f < nf; ++f)
+    if (touches[f])
+      for (int i = 0; i < 3; ++i)
+        if (!fixed[corner(f, i)]) fixed[corner(f, i)] = 1, more = true;
+  if (more && descend_and_keep()) return true;
   map.uv = start;
   return false;
 }
