@@ -4,7 +4,7 @@
 // ours, the composed map's flips, and the time per stage.
 //
 //   bench_quality [--seeds N] [--mesh NAME]... [--budget-s S] [--baseline] [--optimize NAME]
-//                 [--max-iterations N] [--all-kinds]
+//                 [--max-iterations N] [--all-kinds] [--kind NAME]...
 //
 // Seeds: seed 0 is the generator's target as it is; seed s > 0 applies an orientation-preserving linear map
 // A_s (a rotation, an anisotropic stretch of 1.15 .. 1.6, another rotation; std::mt19937 seeded with s) to the
@@ -20,6 +20,7 @@
 // --all-kinds adds the kinds without a certificate on the source (circle, c_shape, spiral_arm: simple polygons;
 // weak_fan: weakly self-overlapping): their rows show "-" and stay out of the comparisons, but count for the
 // time and inserted-count figures (the maze onto a simple spiral is the classic runaway case).
+// --kind NAME (repeatable) keeps only those kinds (any of the above).
 // Mean K: area-weighted mean of K = sigma1 / sigma2 (engine/quality.h), the same measure for both.
 #include <algorithm>
 #include <chrono>
@@ -134,7 +135,7 @@ int main(int argc, char** argv) {
   double budget_s = 30;
   bool baseline = false;
   bool all_kinds = false;
-  std::vector<std::string> only;
+  std::vector<std::string> only, only_kinds;
   lipmap::ParametrizeOptions options;
   std::string data = default_data_dir();
   if (const char* env = std::getenv("LIPMAP_DATA_DIR"); env && *env) data = env;
@@ -144,6 +145,7 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--budget-s") && i + 1 < argc) budget_s = std::max(1.0, std::atof(argv[++i]));
     else if (!std::strcmp(argv[i], "--baseline")) baseline = true;
     else if (!std::strcmp(argv[i], "--all-kinds")) all_kinds = true;
+    else if (!std::strcmp(argv[i], "--kind") && i + 1 < argc) only_kinds.push_back(argv[++i]);
     else if (!std::strcmp(argv[i], "--optimize") && i + 1 < argc) {
       if (!lipmap::parse_optimize_energy(argv[++i], options.optimize)) {
         std::printf("unknown energy %s\n", argv[i]);
@@ -152,7 +154,7 @@ int main(int argc, char** argv) {
     } else if (!std::strcmp(argv[i], "--max-iterations") && i + 1 < argc) options.max_iterations = std::atoi(argv[++i]);
     else {
       std::printf("usage: %s [--seeds N] [--mesh NAME]... [--budget-s S] [--baseline] [--optimize NAME] "
-                  "[--max-iterations N] [--all-kinds]\n", argv[0]);
+                  "[--max-iterations N] [--all-kinds] [--kind NAME]...\n", argv[0]);
       return 0;
     }
   }
@@ -183,7 +185,10 @@ int main(int argc, char** argv) {
     }
     const lipmap::targetgen::DiskMeshRef ref{mesh.vertices, mesh.faces, mesh.boundary_loop};
     const std::vector<Kind> certified = {Kind::exp_strip, Kind::power_map, Kind::cubic_map, Kind::bent_strip};
-    for (Kind kind : all_kinds ? lipmap::targetgen::all_kinds() : certified) {
+    for (Kind kind : all_kinds || !only_kinds.empty() ? lipmap::targetgen::all_kinds() : certified) {
+      if (!only_kinds.empty() &&
+          std::find(only_kinds.begin(), only_kinds.end(), lipmap::targetgen::kind_name(kind)) == only_kinds.end())
+        continue;
       std::string why;
       const auto target = lipmap::targetgen::make_target(kind, ref, &why);
       if (!target) {
