@@ -158,6 +158,13 @@ int main(int argc, char** argv) {
       return 0;
     }
   }
+  for (const std::string& k : only_kinds) {
+    const std::vector<Kind> kinds = lipmap::targetgen::all_kinds();
+    if (std::none_of(kinds.begin(), kinds.end(), [&](Kind x) { return k == lipmap::targetgen::kind_name(x); })) {
+      std::printf("unknown kind %s\n", k.c_str());
+      return 2;
+    }
+  }
   if (baseline) {
     options.untangle = false;
     options.optimize = lipmap::OptimizeEnergy::none;
