@@ -158,13 +158,21 @@ int main(int argc, char** argv) {
       return 0;
     }
   }
-  for (const std::string& k : only_kinds) {
-    const std::vector<Kind> kinds = lipmap::targetgen::all_kinds();
-    if (std::none_of(kinds.begin(), kinds.end(), [&](Kind x) { return k == lipmap::targetgen::kind_name(x); })) {
-      std::printf("unknown kind %s\n", k.c_str());
+  // The kinds each mesh gets: --kind's, else the certified ones (--all-kinds: every one).
+  std::vector<Kind> kinds;
+  for (const std::string& name : only_kinds) {
+    const std::vector<Kind>& every = lipmap::targetgen::all_kinds();
+    const auto k =
+        std::find_if(every.begin(), every.end(), [&](Kind x) { return name == lipmap::targetgen::kind_name(x); });
+    if (k == every.end()) {
+      std::printf("unknown kind %s\n", name.c_str());
       return 2;
     }
+    kinds.push_back(*k);
   }
+  if (kinds.empty())
+    kinds = all_kinds ? lipmap::targetgen::all_kinds()
+                      : std::vector<Kind>{Kind::exp_strip, Kind::power_map, Kind::cubic_map, Kind::bent_strip};
   if (baseline) {
     options.untangle = false;
     options.optimize = lipmap::OptimizeEnergy::none;
@@ -191,11 +199,7 @@ int main(int argc, char** argv) {
       continue;
     }
     const lipmap::targetgen::DiskMeshRef ref{mesh.vertices, mesh.faces, mesh.boundary_loop};
-    const std::vector<Kind> certified = {Kind::exp_strip, Kind::power_map, Kind::cubic_map, Kind::bent_strip};
-    for (Kind kind : all_kinds || !only_kinds.empty() ? lipmap::targetgen::all_kinds() : certified) {
-      if (!only_kinds.empty() &&
-          std::find(only_kinds.begin(), only_kinds.end(), lipmap::targetgen::kind_name(kind)) == only_kinds.end())
-        continue;
+    for (Kind kind : kinds) {
       std::string why;
       const auto target = lipmap::targetgen::make_target(kind, ref, &why);
       if (!target) {
