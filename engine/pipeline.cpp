@@ -494,7 +494,7 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
   starts.push_back(parametrize_once(raw_mesh, raw_boundary, harmonic, cancel, {}, true));
   starts.push_back(parametrize_once(raw_mesh, raw_boundary, options, cancel, progress, true));
   // Only when the start refined in regions lost to the harmonic one: relaxing a refined map is most of method
-  // extremal's time (mountain / weak_fan: 250 s with two starts, 370 s with three).
+  // extremal's time (mountain / weak_fan: 244 s with two starts, 370 s with three).
   if (starts[1].map.regions > 0 && lower(starts[0], starts[1]))
     starts.push_back(parametrize_once(raw_mesh, raw_boundary, options, cancel, {}, true, true));
   std::size_t kept = 1;
