@@ -242,6 +242,9 @@ int main(int argc, char** argv) {
           if (res.map.regions > 0)
             r.untangle_outcome += "; refined in " + std::to_string(res.map.regions) + " regions around the folds (" +
                                   std::to_string(res.map.region_faces) + " faces)";
+          if (res.optimization.points_removed > 0)
+            r.untangle_outcome += "; the optimizer's free descent left " + std::to_string(res.optimization.points_removed) +
+                                  " inserted points removable, removed";
           r.iterations = res.optimization.iterations;
           r.t_untangle = res.timings.untangle;
           r.t_refine = res.timings.refine;

@@ -10,10 +10,15 @@
 // metric of the starting map (engine/detail/uv_descent.h), then, for MIPS on
 // maps of up to kNewtonMaxFaces triangles, by projected Newton steps from where it stopped.
 //
-// What moves: the interior vertices. The boundary is pinned exactly. Inserted vertices, and the original
-// corners of the source faces that carry inserted vertices, stay too: those faces' refined polygons are the
-// ones the refinement minimized (paper 4, Fig. 11: no inserted point removable), and moving their corners
-// could make a point removable after the fact. Every other vertex of a refined mesh moves freely.
+// What moves: the interior vertices. The boundary is pinned exactly. On a refined map (given the rotation
+// indices, without a reference metric) every vertex off the boundary moves first, inserted ones in uv only
+// (their 3D points stay on their edges): that undoes folds some points were inserted for, and the points it
+// leaves removable are removed (refine.h's simplify_again, the rounds of Fig. 11 on the moved map; contract
+// point 6 holds again). Then, and on every refined map otherwise, the inserted vertices and the original
+// corners of the source faces that carry them stay: those faces' refined polygons are the ones the refinement
+// minimized (paper 4, Fig. 11: no inserted point removable), and moving their corners could make a point
+// removable after the fact. Every other vertex of a refined mesh moves freely. The first way is kept when it
+// lowers the mean K; else the second runs from the map as it came.
 #pragma once
 
 #include <cstddef>
@@ -57,15 +62,17 @@ struct Optimization {
   int free_vertices = 0;     // vertices that could move
   double energy_before = 0, energy_after = 0;  // rest-area-weighted mean of the energy
   Distortion before;         // conformal distortion of the map it started from (after: the quality stage's)
+  int points_removed = 0;    // inserted points the free descent left removable, removed (see "What moves")
 };
 
 // map: a refined map at the working scale with every face strictly positive; its uv is changed in place.
 // loop: the source boundary loop; source: the validated source mesh (its topology locates inserted
 // vertices' faces). rest: the rest shapes, one point per vertex of map (a reference metric's: the energy and
 // the distortion it promises to lower are then measured against T's triangles, so the map moves towards T's
-// shape); null for map.vertices (the surface). Throws Cancelled.
+// shape); null for map.vertices (the surface). rotation: the classification's R_k per loop position; null or
+// empty keeps a refined map's polygons pinned throughout. Throws Cancelled.
 Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, double uv_area, RefinedMap& map,
                           const ParametrizeOptions& options, const CancelToken* cancel = nullptr,
-                          const std::vector<Point3>* rest = nullptr);
+                          const std::vector<Point3>* rest = nullptr, const std::vector<int>* rotation = nullptr);
 
 }  // namespace lipmap

@@ -248,7 +248,7 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
       }
       out.optimization = run_stage(Stage::optimize, time.optimize, cancel, progress, [&] {
         return optimize_map(work_mesh, input.boundary.loop, signed_area(work_polygon.vertices), out.map, options, cancel,
-                            metric ? &rest_r : nullptr);
+                            metric ? &rest_r : nullptr, &out.classification.rotation_indices);
       });
     } else if (out.metric.reproduced) {
       out.optimization.outcome = "not needed: the answer is the reference map itself (every triangle at its rest shape)";
