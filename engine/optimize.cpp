@@ -151,8 +151,8 @@ Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, 
   // A refined map: first every vertex off the boundary moves, the inserted ones in uv only (their 3D points stay
   // on their edges), which undoes folds some points were inserted for; the points that this leaves removable go
   // again (refine.h's simplify_again: the rounds of Fig. 11 on the moved map), up to kFreeRounds times, and the
-  // descent with the refined polygons pinned polishes what is left. Kept when the mean K and the energy end
-  // lower; else the plain descent runs on the map as it came.
+  // descent with the refined polygons pinned polishes what is left. Kept when neither the mean K nor the energy
+  // ends above the start's; else the plain descent runs on the map as it came.
   auto run = [&](RefinedMap& m, bool free_first) {
     Optimization o = out;
     Descent first;  // the free descents together (free_first: never with rest shapes)

@@ -17,8 +17,8 @@
 // point 6 holds again). Then, and on every refined map otherwise, the inserted vertices and the original
 // corners of the source faces that carry them stay: those faces' refined polygons are the ones the refinement
 // minimized (paper 4, Fig. 11: no inserted point removable), and moving their corners could make a point
-// removable after the fact. Every other vertex of a refined mesh moves freely. The first way is kept when it
-// lowers the mean K; else the second runs from the map as it came.
+// removable after the fact. Every other vertex of a refined mesh moves freely. The first way is kept when
+// neither the mean K nor the energy ends above the start's; else the second runs from the map as it came.
 #pragma once
 
 #include <cstddef>
