@@ -153,8 +153,10 @@ Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, 
   // again (refine.h's simplify_again: the rounds of Fig. 11 on the moved map), up to kFreeRounds times, and the
   // descent with the refined polygons pinned polishes what is left. Kept when neither the mean K nor the energy
   // ends above the start's; else the plain descent runs on the map as it came.
+  // Each attempt fills its own report; `before` (with its per-face K) is moved into the one returned.
   auto run = [&](RefinedMap& m, bool free_first) {
-    Optimization o = out;
+    Optimization o;
+    o.energy = out.energy;
     Descent first;  // the free descents together (free_first: never with rest shapes)
     for (int round = 0; free_first && round < kFreeRounds; ++round) {
       const std::size_t points = m.inserted.size();
@@ -192,18 +194,19 @@ Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, 
     // energies are means over the same total rest area.
     if (o.ran && mean <= out.before.mean && o.energy_after <= o.energy_before) {
       map = std::move(freed);
+      o.before = std::move(out.before);
       return o;
     }
   }
   const std::vector<Point2> start_uv = map.uv;
   auto [o, mean] = run(map, false);
-  if (!o.ran) return o;
-  if (mean > out.before.mean) {
+  if (o.ran && mean > out.before.mean) {
     map.uv = start_uv;
     o.iterations = 0;
     o.energy_after = o.energy_before;
     o.outcome = "reverted: the mean conformal distortion would have risen";
   }
+  o.before = std::move(out.before);
   return o;
 }
 

@@ -482,9 +482,8 @@ ParametrizeResult parametrize(const RawMesh& raw_mesh, const RawBoundary& raw_bo
   // first).
   ParametrizeOptions harmonic = options;
   harmonic.method = MapMethod::harmonic;
-  // Ties in max K (the worst face is one that no start moved, e.g. one with three boundary corners; mountain /
-  // weak_fan: 177.26 in both starts): fewer inserted points, then the lower max K over the faces with a corner
-  // off the boundary.
+  // Ties in max K come when the worst face is one that no start moved, e.g. one with three boundary corners
+  // (mountain / weak_fan: 177.26 in both starts).
   auto lower = [](const ParametrizeResult& a, const ParametrizeResult& b) {
     if (a.distortion.max != b.distortion.max) return a.distortion.max < b.distortion.max;
     if (a.map.inserted.size() != b.map.inserted.size()) return a.map.inserted.size() < b.map.inserted.size();
