@@ -23,6 +23,17 @@ constexpr int kStepsInAll = 20000;
 constexpr int kMinStepsInAll = 2000;
 constexpr double kFaceStepsInAll = 6e7;  // steps x faces: about 4 s on the 9k-face maze
 constexpr int kSplitPasses = 3;          // rounds of chord splits after a failed run
+// Whole-interior runs on meshes up to kNewtonMaxFaces faces take projected Newton steps (engine/detail/uv_descent.h)
+// instead of L-BFGS: on thin, strongly stretched meshes L-BFGS stalls with hundreds of folds left (maze onto
+// power_map: 815 non-positive faces after 6,540 steps, and 822 after 60,000), where Newton ends with none but
+// the fixed faces whose chords get split. At most kNewtonStepsPerRound steps per eps (more do not lower the
+// total), and kNewtonFaceSteps steps x faces in all (about 1,300 steps on the 9k-face maze).
+constexpr int kNewtonMaxFaces = 60000;
+constexpr int kNewtonStepsPerRound = 10;
+constexpr double kNewtonFaceSteps = 3e7;
+constexpr int kMinNewtonSteps = 200;
+constexpr int kNewtonRounds = 400;
+constexpr int kNewtonPatience = 25;
 constexpr double kMaxStartEpsilon = 0.1;
 // Local attempts: the free vertices within kLocalRings (then 3x as many) rings of the folds, when they are at
 // most a quarter of the free vertices, with at most kLocalSteps steps each.
@@ -169,10 +180,18 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
   s.cancel = cancel;
   // Steps in all, fewer on large meshes (a step costs a pass over the faces): a case the untangler cannot
   // solve within them goes to refinement.
-  const int steps_in_all =
-      std::max(kMinStepsInAll, std::min(kStepsInAll, static_cast<int>(kFaceStepsInAll / std::max<std::size_t>(source.faces.size(), 1))));
-  // One run of Garanzha et al. 2021 from `x`, until every face is positive or the step budget is spent.
-  auto run = [&](detail::UvDescent& descent, const std::vector<Triangle>& faces, std::vector<Point2>& x, int budget) {
+  const double face_count = static_cast<double>(std::max<std::size_t>(source.faces.size(), 1));
+  const int lbfgs_steps_in_all = std::max(kMinStepsInAll, std::min(kStepsInAll, static_cast<int>(kFaceStepsInAll / face_count)));
+  const int newton_steps_in_all = std::max(kMinNewtonSteps, static_cast<int>(kNewtonFaceSteps / face_count));
+  // One run of Garanzha et al. 2021 from `x`, until every face is positive or the step budget is spent; with
+  // `newton`, rounds of at most kNewtonStepsPerRound projected Newton steps, each round ended early once a step
+  // gains less than 1e-4 of the energy (eps is lowered next anyway).
+  int whole_steps = 0;  // steps of the whole-interior runs (the local attempts have their own cap)
+  auto run = [&](detail::UvDescent& descent, const std::vector<Triangle>& faces, std::vector<Point2>& x, int budget,
+                 bool newton) {
+    s.newton = newton;
+    s.relative_tolerance = newton ? 1e-4 : 1e-9;
+    const int per_round = newton ? kNewtonStepsPerRound : kStepsPerRound;
     // Sec. 3: start with eps of the order of the worst determinant, then after each minimization lower it by a
     // factor that follows the energy's progress (sigma), keeping eps large enough that chi stays well above
     // zero on the worst triangle; once every det J > 0, eps becomes tiny.
@@ -183,17 +202,23 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
     // at 0.1 (det J is about 1 for an area-preserving map, the rest shapes being scaled to the uv area).
     s.epsilon = dmin > 0 ? 1e-10 : std::min(std::sqrt(1e-8 + 0.04 * dmin * dmin), kMaxStartEpsilon);
     double e_prev = descent.energy(x, s);
-    for (int used = 0, rounds = 0; rounds < kRounds && used < budget;) {
+    int best = static_cast<int>(faces.size()) + 1, since_best = 0;
+    for (int used = 0, rounds = 0; rounds < (newton ? kNewtonRounds : kRounds) && used < budget;) {
       check_cancel(cancel);
-      s.max_iterations = std::min(kStepsPerRound, budget - used);
+      s.max_iterations = std::min(per_round, budget - used);
       const detail::DescentOutcome step = descent.minimize(x, s);
       ++rounds;
       ++out.rounds;
       used += step.iterations;
       out.iterations += step.iterations;
+      whole_steps += step.iterations;
       dmin = descent.min_det(x);
-      if (dmin > 0 && count_non_positive(x, faces) == 0) return 0;
+      const int left = dmin > 0 || newton ? count_non_positive(x, faces) : -1;
+      if (dmin > 0 && left == 0) return 0;
       if (step.iterations == 0) break;  // stalled
+      // Newton's rounds are short: a run whose fold count has not reached a new low in kNewtonPatience rounds
+      // has settled (on maze / spiral_arm, about 1,900 folds from round 40 on), and refinement takes over.
+      if (newton && (left < best ? (best = left, since_best = 0, false) : ++since_best >= kNewtonPatience)) break;
       const double e = descent.energy(x, s);
       const double sigma = std::max(1 - e / e_prev, 0.1);
       const double mu = (1 - sigma) * detail::regularized_det(dmin, s.epsilon);
@@ -216,13 +241,33 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
       if (free_local == 0 || 4 * free_local > free_all) return false;
       detail::UvDescent local(shape, faces, local_pinned, uv_area);
       std::vector<Point2> x = uv;
-      if (run(local, faces, x, kLocalSteps) == 0) {
+      const int before = whole_steps;
+      const bool done = run(local, faces, x, kLocalSteps, false) == 0;
+      whole_steps = before;
+      if (done) {
         uv.swap(x);
         out.moved_locally = static_cast<int>(free_local);
         return true;
       }
     }
     return false;
+  };
+  // With a rotation index above 0 (a weakly self-overlapping polygon), Newton from the harmonic start goes
+  // straight to every face positive around a branch point (maze / weak_fan: the hub's turn at 0, another vertex's
+  // angle sum 4 pi) and from the composed start kept 350 folds after 3,270 steps (34 s): L-BFGS then, as before.
+  const bool all_zero_rotation = std::all_of(rotation.begin(), rotation.end(), [](int r) { return r == 0; });
+  // Whether x, every face positive, passes verify as the untangled answer would.
+  auto verified = [&](const std::vector<Point2>& x) {
+    Untangling probe;
+    probe.inserted = out.inserted;
+    probe.faces = out.faces;
+    probe.uv = x;
+    try {
+      verify_map(source, loop, polygon, rotation, untangled_map(source, probe));
+    } catch (const InternalError&) {
+      return false;
+    }
+    return true;
   };
   for (int pass = 0;; ++pass) {
     const std::vector<Triangle>& faces = out.faces.empty() ? source.faces : out.faces;
@@ -231,27 +276,37 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
       break;
     }
     detail::UvDescent descent(shape, faces, pinned, uv_area);
+    const bool newton = faces.size() <= static_cast<std::size_t>(kNewtonMaxFaces) && all_zero_rotation;
+    if (newton) out.newton = true;
+    const int steps_in_all = newton ? newton_steps_in_all : lbfgs_steps_in_all;
+    // Steps spent against that budget: L-BFGS's count the local attempts' too (as they always have), Newton's
+    // only its own (a local L-BFGS step is no Newton step).
+    auto spent = [&] { return newton ? whole_steps : out.iterations; };
     if (pass == 0) {
       // Two starts: the composed map, and the harmonic map with the boundary pinned (Garanzha et al.'s usual
       // start). The composed map is the better one when it folds little; when the source is a long corridor
       // the harmonic intermediate maps crowd it exponentially and it folds in thousands of places, while the
       // pinned boundary keeps the harmonic start close to the polygon. The one with fewer non-positive faces
       // goes first (with half the steps); the other gets what is left.
+      // A start that ends with every face positive but fails verify (a branch point: an interior angle sum of
+      // 4 pi, or a boundary vertex off its rotation index; maze / weak_fan from the harmonic start) counts as
+      // failed, and the other start gets the rest of the steps.
       std::vector<Point2> other = uv;
       descent.harmonic(other);
       if (count_non_positive(other, faces) < count_non_positive(uv, faces)) std::swap(uv, other);
-      out.flipped_after = run(descent, faces, uv, steps_in_all / 2);
-      if (out.flipped_after > 0 && out.iterations < steps_in_all) {
-        const int left = run(descent, faces, other, (steps_in_all - out.iterations) / 2);
-        if (left < out.flipped_after) {
+      out.flipped_after = run(descent, faces, uv, steps_in_all / 2, newton);
+      const bool branched = out.flipped_after == 0 && !verified(uv);
+      if ((out.flipped_after > 0 || branched) && spent() < steps_in_all) {
+        const int left = run(descent, faces, other, (steps_in_all - spent()) / (branched ? 1 : 2), newton);
+        if (branched || left < out.flipped_after) {
           out.flipped_after = left;
           uv.swap(other);
         }
       }
     } else {
-      out.flipped_after = run(descent, faces, uv, steps_in_all - out.iterations);
+      out.flipped_after = run(descent, faces, uv, steps_in_all - spent(), newton);
     }
-    if (out.flipped_after == 0 || pass == kSplitPasses || out.iterations >= steps_in_all) break;
+    if (out.flipped_after == 0 || pass == kSplitPasses || spent() >= steps_in_all) break;
     // Still folded: a chord (an interior edge joining two boundary vertices) is a fixed straight segment, and
     // one that leaves the polygon cannot be an edge of any injective map there. Split the unsplit chords of
     // the faces still not positive, and go on from this map (paper-4 refinement stays the last resort).
@@ -283,7 +338,8 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
       if (orientation_sign(uv[t[0]], uv[t[1]], uv[t[2]]) <= 0 && caged[t[0]] && caged[t[1]] && caged[t[2]]) ++stuck;
     out.outcome = "failed: " + std::to_string(out.flipped_after) + " faces still not positive (" +
                   std::to_string(stuck) + " around vertices with only boundary neighbours) after " +
-                  std::to_string(out.rounds) + " rounds, " + std::to_string(out.iterations) + " steps, " +
+                  std::to_string(out.rounds) + " rounds, " + std::to_string(out.iterations) +
+                  (out.newton ? " steps (projected Newton), " : " steps, ") +
                   std::to_string(out.inserted.size()) + " chords split";
     out.uv = std::move(uv);  // the last iterate: where its folds are is where refinement is needed
     return out;
@@ -301,7 +357,8 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
   out.succeeded = true;
   out.outcome = (out.moved_locally > 0 ? "untangled locally (" + std::to_string(out.moved_locally) + " vertices moved) in "
                                        : std::string("untangled in ")) +
-                std::to_string(out.rounds) + " rounds, " + std::to_string(out.iterations) + " steps" +
+                std::to_string(out.rounds) + " rounds, " + std::to_string(out.iterations) +
+                (out.newton ? " steps (projected Newton)" : " steps") +
                 (out.inserted.empty() ? "" : " after splitting " + std::to_string(out.inserted.size()) + " chords");
   out.uv = std::move(candidate.uv);
   return out;

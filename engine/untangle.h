@@ -16,7 +16,9 @@
 // a free vertex (a chord shared by two such faces first); the untangler then moves the inserted vertices too.
 //
 // Few folds are first untangled locally: only the free vertices within 2 (then 6) rings of the non-positive
-// faces move, when they are at most a quarter of the free vertices; the whole interior moves only if that fails.
+// faces move, when they are at most a quarter of the free vertices; the whole interior moves only if that fails,
+// by projected Newton steps on meshes up to 60k faces whose rotation indices are all 0 (L-BFGS stalls on thin,
+// stretched ones), else by L-BFGS.
 //
 // Acceptance: the untangled map is returned only when every face is strictly positive (exact predicate) and
 // the verify stage's checks pass on it (one full turn at every interior vertex, each boundary vertex's
@@ -42,6 +44,7 @@ struct Untangling {
   int rounds = 0;          // values of eps tried
   int iterations = 0;      // L-BFGS steps over all rounds
   int moved_locally = 0;   // when the local attempt succeeded: the free vertices it moved (near the folds)
+  bool newton = false;     // the whole interior moved by projected Newton steps (else L-BFGS)
   std::string outcome;     // one line: why it was not attempted, or how it ended
   // The mesh untangling ran on: the source faces (faces empty, inserted empty), or the source with chords of
   // fixed non-positive faces split at their midpoints (inserted[i] is vertex source.vertices.size() + i).

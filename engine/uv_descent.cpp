@@ -135,19 +135,32 @@ double dot(const Vec2s& x, const Vec2s& y) { return (x.array() * y.array()).sum(
 
 double regularized_det(double det, double eps) { return 0.5 * (det + std::sqrt(eps * eps + det * det)); }
 
-std::array<double, 16> projected_mips_hessian(double a, double b, double c, double d) {
-  // J = rot(phi) diag(s1, s2) rot(theta): the closed-form SVD of a 2 x 2 matrix.
+namespace {
+
+// The projected Hessian of an isotropic energy of J = U diag(s1, s2) W from its eigensystem (Smith, de Goes &
+// Kim 2019): the twist and flip modes' eigenvalues and the 2 x 2 Hessian [[f11, f12], [f12, f22]] of the
+// scaling modes U diag(e) W; negative eigenvalues dropped.
+struct SvdFrame {
+  double s1 = 0, s2 = 0;  // s1 >= |s2|; s2 < 0 when det J < 0 (U and W are rotations)
+  double cu = 1, su = 0, cw = 1, sw = 0;
+};
+
+// J = rot(phi) diag(s1, s2) rot(theta): the closed-form signed SVD of a 2 x 2 matrix.
+SvdFrame svd_frame(double a, double b, double c, double d) {
   const double E = 0.5 * (a + d), F = 0.5 * (a - d), G = 0.5 * (c + b), H = 0.5 * (c - b);
   const double Q = std::hypot(E, H), R = std::hypot(F, G);
-  const double s1 = Q + R, s2 = Q - R;
   const double a1 = std::atan2(G, F), a2 = std::atan2(H, E);
   const double phi = 0.5 * (a2 + a1), theta = 0.5 * (a2 - a1);
-  const double cu = std::cos(phi), su = std::sin(phi), cw = std::cos(theta), sw = std::sin(theta);
+  return {Q + R, Q - R, std::cos(phi), std::sin(phi), std::cos(theta), std::sin(theta)};
+}
+
+std::array<double, 16> assemble_modes(const SvdFrame& m, double twist, double flip, double f11, double f12, double f22) {
   // The eigenmatrix U M W of a mode M, as a row-major 4-vector.
   auto mode = [&](double m00, double m01, double m10, double m11) {
-    const double p00 = cu * m00 - su * m10, p01 = cu * m01 - su * m11;
-    const double p10 = su * m00 + cu * m10, p11 = su * m01 + cu * m11;
-    return std::array<double, 4>{p00 * cw + p01 * sw, p01 * cw - p00 * sw, p10 * cw + p11 * sw, p11 * cw - p10 * sw};
+    const double p00 = m.cu * m00 - m.su * m10, p01 = m.cu * m01 - m.su * m11;
+    const double p10 = m.su * m00 + m.cu * m10, p11 = m.su * m01 + m.cu * m11;
+    return std::array<double, 4>{p00 * m.cw + p01 * m.sw, p01 * m.cw - p00 * m.sw, p10 * m.cw + p11 * m.sw,
+                                 p11 * m.cw - p10 * m.sw};
   };
   std::array<double, 16> out{};
   auto add = [&](double lambda, const std::array<double, 4>& q) {
@@ -155,11 +168,9 @@ std::array<double, 16> projected_mips_hessian(double a, double b, double c, doub
     for (int i = 0; i < 4; ++i)
       for (int j = 0; j < 4; ++j) out[4 * i + j] += lambda * q[i] * q[j];
   };
-  if (!(s2 > 0)) return out;
-  const double p = s1 * s2, p2 = p * p, r = std::sqrt(0.5);
-  add(1 / p + (s1 * s1 + s1 * s2 + s2 * s2) / p2, mode(0, r, r, 0));  // flip
-  // Scaling: the Hessian of f in (s1, s2).
-  const double f11 = 2 * s2 / (s1 * s1 * s1), f22 = 2 * s1 / (s2 * s2 * s2), f12 = -1 / (s1 * s1) - 1 / (s2 * s2);
+  const double r = std::sqrt(0.5);
+  add(twist, mode(0, -r, r, 0));
+  add(flip, mode(0, r, r, 0));
   const double mean = 0.5 * (f11 + f22), radius = std::hypot(0.5 * (f11 - f22), f12);
   const double l1 = mean + radius, l2 = mean - radius;
   // The eigenvector of l1: (f12, l1 - f11) or (l1 - f22, f12), whichever is the better conditioned.
@@ -174,6 +185,40 @@ std::array<double, 16> projected_mips_hessian(double a, double b, double c, doub
   add(l1, mode(ex, 0, 0, ey));
   add(l2, mode(-ey, 0, 0, ex));
   return out;
+}
+
+}  // namespace
+
+std::array<double, 16> projected_mips_hessian(double a, double b, double c, double d) {
+  const SvdFrame m = svd_frame(a, b, c, d);
+  const double s1 = m.s1, s2 = m.s2;
+  if (!(s2 > 0)) return {};
+  const double p = s1 * s2, p2 = p * p;
+  // f = s1 / s2 + s2 / s1: the twist's eigenvalue is -(s1 - s2)^2 / p^2 <= 0.
+  const double flip = 1 / p + (s1 * s1 + s1 * s2 + s2 * s2) / p2;
+  const double f11 = 2 * s2 / (s1 * s1 * s1), f22 = 2 * s1 / (s2 * s2 * s2), f12 = -1 / (s1 * s1) - 1 / (s2 * s2);
+  return assemble_modes(m, 0, flip, f11, f12, f22);
+}
+
+std::array<double, 16> projected_untangle_hessian(double a, double b, double c, double d, double eps, double theta) {
+  const SvdFrame m = svd_frame(a, b, c, d);
+  const double s1 = m.s1, s2 = m.s2;
+  // psi(I2, I3) = N / chi(I3) with I2 = |J|^2 = s1^2 + s2^2, I3 = det J = s1 s2, N = (1 - theta) I2 + theta (I3^2 + 1).
+  const double i2 = s1 * s1 + s2 * s2, i3 = s1 * s2;
+  const double root = std::sqrt(eps * eps + i3 * i3);
+  const double chi = 0.5 * (i3 + root), chi1 = 0.5 * (1 + i3 / root), chi2 = eps * eps / (2 * root * root * root);
+  const double n = (1 - theta) * i2 + theta * (i3 * i3 + 1), n3 = 2 * theta * i3;
+  // Partial derivatives of psi in I2 and I3 (psi is linear in I2).
+  const double p2 = (1 - theta) / chi;
+  const double p3 = n3 / chi - n * chi1 / (chi * chi);
+  const double p23 = -(1 - theta) * chi1 / (chi * chi);
+  const double p33 = 2 * theta / chi - 2 * n3 * chi1 / (chi * chi) - n * chi2 / (chi * chi) +
+                     2 * n * chi1 * chi1 / (chi * chi * chi);
+  // Along a mode M, I2'' = 2 |M|^2 and I3'' = 2 det M: twist (det 1/2) 2 p2 + p3, flip (det -1/2) 2 p2 - p3; in
+  // (s1, s2) the gradients of I2 and I3 are 2 (s1, s2) and (s2, s1), and I3's Hessian is [[0, 1], [1, 0]].
+  const double f11 = 2 * p2 + 4 * p23 * i3 + p33 * s2 * s2, f22 = 2 * p2 + 4 * p23 * i3 + p33 * s1 * s1;
+  const double f12 = 2 * p23 * i2 + p33 * i3 + p3;
+  return assemble_modes(m, 2 * p2 + p3, 2 * p2 - p3, f11, f12, f22);
 }
 
 struct UvDescent::Impl {
@@ -397,8 +442,8 @@ struct UvDescent::Impl {
     for (int r = 0; r < n; ++r) hessian_diagonal[static_cast<std::size_t>(r)] = value_slot(hessian, r, r);
   }
 
-  // p = -H^-1 g with H the sum of the faces' projected mips Hessians (+ a tiny multiple of the identity when
-  // H is only semi-definite). With power p != 1, each face's term is (f / 2b)^p of f = mips, whose Hessian
+  // p = -H^-1 g with H the sum of the faces' projected Hessians, mips or untangle (+ a tiny multiple of the
+  // identity when H is only semi-definite). With power p != 1, each face's term is (f / 2b)^p of f = mips, whose Hessian
   // c1 H_f + c2 grad f grad f^T (c1, c2 > 0) is projected by projecting H_f: the rank-one term is already
   // positive semi-definite. False when no factorization succeeds.
   bool newton_direction(const std::vector<Point2>& uv, const Vec2s& g, Vec2s& p, const DescentSettings& s) {
@@ -410,8 +455,10 @@ struct UvDescent::Impl {
       const int f = active[k];
       const M2& B = rest_inverse[f];
       const M2 J = mul(edges(uv, f), B);
-      std::array<double, 16> hj = projected_mips_hessian(J.a, J.b, J.c, J.d);
-      if (power != 1) {
+      std::array<double, 16> hj = s.energy == UvEnergy::untangle
+                                      ? projected_untangle_hessian(J.a, J.b, J.c, J.d, s.epsilon, s.theta)
+                                      : projected_mips_hessian(J.a, J.b, J.c, J.d);
+      if (s.energy == UvEnergy::mips && power != 1) {
         const double b2 = 2 * base_of(s, static_cast<std::size_t>(f));
         const double mips = J.norm2() / J.det();
         const double c1 = power / b2 * std::pow(mips / b2, power - 1);
@@ -587,7 +634,7 @@ DescentOutcome UvDescent::minimize(std::vector<Point2>& uv, const DescentSetting
   out.energy_before = out.energy_after = energy(uv, s);
   if (m.free_vertex.empty() || !std::isfinite(out.energy_before) || s.max_iterations <= 0) return out;
   const bool flip_free = s.flip_free && s.energy != UvEnergy::untangle;
-  bool newton = s.newton && s.energy == UvEnergy::mips;
+  bool newton = s.newton && s.energy != UvEnergy::symmetric_dirichlet;
   const int n = static_cast<int>(m.free_vertex.size());
   // L-BFGS memory (Nocedal & Wright Alg. 7.4), vectors as n x 2 blocks.
   constexpr std::size_t kMemory = 8;

@@ -10,10 +10,11 @@
 // Hessian with det J frozen at the starting map (mips: 1 / det J), since these energies' curvature follows the
 // area ratio, which on stretched targets spans orders of magnitude (bench_quality, 14 meshes x 4 targets x 3
 // seeds: median mean K ratio to the certificate 0.609 -> 0.595, in 38.0 s of optimization instead of 42.6 s).
-// Or, for mips (DescentSettings::newton; the optimize stage runs it after L-BFGS), projected Newton (Teran, Sifakis, Irving & Fedkiw 2005): the sum of
-// the triangles' Hessians, each projected onto the positive semi-definite matrices in closed form, refactorized
-// (numerically; its pattern is analysed once) at every step. Far costlier per step, it converges where L-BFGS
-// crawls on MIPS's flat valleys.
+// Or, for mips and untangle (DescentSettings::newton; the optimize stage runs it after L-BFGS, the untangler when
+// L-BFGS left folds), projected Newton (Teran, Sifakis, Irving & Fedkiw 2005): the sum of the triangles'
+// Hessians, each projected onto the positive semi-definite matrices in closed form, refactorized (numerically;
+// its pattern is analysed once) at every step. Far costlier per step, it converges where L-BFGS crawls on
+// MIPS's flat valleys and on the untangle energy of thin, strongly stretched meshes.
 // Energies (per triangle, weighted by rest area):
 //   mips                 tr(J^T J) / det J = K + 1/K with K = sigma1 / sigma2 (Hormann & Greiner 2000): lowers
 //                        exactly the conformal distortion the quality stage reports; +inf when det J <= 0.
@@ -51,9 +52,9 @@ struct DescentSettings {
   double epsilon = 0;        // untangle only: chi's regularization
   double theta = 1.0 / 128;  // untangle only: weight of the area term (Garanzha et al. 2021 use a small one)
   bool flip_free = true;     // mips / symmetric_dirichlet: every accepted step keeps every triangle positive
-  // mips only (any power): projected Newton steps (the sum of the triangles' Hessians, each projected onto the
-  // positive semi-definite matrices, factorized at every step) instead of L-BFGS; after a Newton step that the
-  // line search cannot accept, L-BFGS goes on from there.
+  // mips (any power) and untangle: projected Newton steps (the sum of the triangles' Hessians, each projected
+  // onto the positive semi-definite matrices, factorized at every step) instead of L-BFGS; after a Newton step
+  // that the line search cannot accept, L-BFGS goes on from there.
   bool newton = false;
   // mips only: minimize the sum of (mips / (2 power_base))^power instead (power >= 1; 1: mips itself). A
   // growing power weighs the worst triangles more and more, a smooth stand-in for the largest K (method
@@ -115,6 +116,13 @@ private:
 // has -(s1 - s2)^2 / (s1 s2)^2 <= 0 (dropped), and the scaling modes U diag(e) W are the eigenpairs e of f's
 // 2 x 2 Hessian in (s1, s2), one of them never positive.
 std::array<double, 16> projected_mips_hessian(double a, double b, double c, double d);
+
+// The Hessian of the untangle energy (1 - theta) |J|^2 / chi(det J, eps) + theta (det^2 J + 1) / chi(det J, eps)
+// with respect to J as above, any sign of det J, projected onto the positive semi-definite matrices: a row-major
+// 4 x 4 matrix. Same eigensystem, J = U diag(s1, s2) W with rotations U, W and s2 < 0 when J is folded: for
+// psi(I2, I3) with I2 = |J|^2, I3 = det J, the twist mode has eigenvalue 2 psi_2 + psi_3, the flip mode
+// 2 psi_2 - psi_3, and the scaling modes are the eigenpairs of psi's Hessian in (s1, s2).
+std::array<double, 16> projected_untangle_hessian(double a, double b, double c, double d, double eps, double theta);
 
 // chi(D, eps) of Garanzha et al. 2021: a smooth positive stand-in for max(D, 0).
 double regularized_det(double det, double eps);

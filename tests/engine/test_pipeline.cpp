@@ -436,6 +436,35 @@ TEST_P(MapPipelineTarget, PassesEveryCheck) {
 
 INSTANTIATE_TEST_SUITE_P(MapPipelineTargets, MapPipelineTarget, testing::ValuesIn(all_cases()), case_name);
 
+// The maze onto the power and cubic maps: every corridor is bent, and until the untangler took Newton steps it
+// left hundreds of folds and refinement inserted over 30,000 points. A face whose three corners are boundary
+// vertices is fixed by the polygon; when it is not positive (counted here by the checker) one of its chords must
+// be split, and one split serves at most the two faces of its chord. Nothing else needs an insertion here: the
+// answer is the untangled unrefined mesh with those chords split, fixed faces / 2 <= inserted <= fixed faces.
+TEST(MapPipeline, MazeOntoPowerAndCubicMapsSplitsOnlyChordsOfFixedFacesThePolygonFolds) {
+  const TestMesh& m = mesh("maze.obj");
+  std::vector<char> on_loop(m.vertices.size(), 0);
+  for (int v : m.loop) on_loop[static_cast<std::size_t>(v)] = 1;
+  for (Kind kind : {Kind::power_map, Kind::cubic_map}) {
+    std::string why;
+    const auto t = targetgen::make_target(kind, ref(m), &why);
+    ASSERT_TRUE(t) << why;
+    std::vector<Point2> at(m.vertices.size());
+    for (std::size_t k = 0; k < m.loop.size(); ++k) at[static_cast<std::size_t>(m.loop[k])] = t->positions[k];
+    std::vector<Triangle> fixed_faces;
+    for (const Triangle& f : m.faces)
+      if (on_loop[static_cast<std::size_t>(f[0])] && on_loop[static_cast<std::size_t>(f[1])] && on_loop[static_cast<std::size_t>(f[2])])
+        fixed_faces.push_back(f);
+    const int folded_fixed = pipelinecases::count_folded_by_checker(at, fixed_faces);
+    const ParametrizeResult r = run_and_check(m, *t);
+    const std::string where = std::string(targetgen::kind_name(kind)) + ": " + r.untangling.outcome;
+    ASSERT_GT(folded_fixed, 0) << where;
+    EXPECT_TRUE(r.untangling.succeeded) << where;
+    EXPECT_LE(static_cast<int>(r.map.inserted.size()), folded_fixed) << where;
+    EXPECT_GE(2 * static_cast<int>(r.map.inserted.size()), folded_fixed) << where;
+  }
+}
+
 // ---- MapPipeline: special cases -----------------------------------------------------------------------
 
 TEST(MapPipeline, DegenerateMeshIsRefusedWithDegenerateFace) {

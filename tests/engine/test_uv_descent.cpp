@@ -6,6 +6,8 @@
 //   NewtonDescent          projected Newton keeps every triangle positive (exact) and the boundary bit for bit,
 //                          and with the same step cap it gets lower than L-BFGS, onto the same minimum
 //                          from differently jittered starts; for mips and for a power of it.
+//   ProjectedUntangleHessian  the same for the untangle energy (folded Jacobians included, eps from 1e-2 to
+//                          100 times |det J|) against the test's own explicit Hessian.
 //   PoweredMips            the energy with a power (method extremal's smooth max K) against the test's own K,
 //                          and its flip-free descent lowers the largest K.
 #include <cmath>
@@ -91,6 +93,86 @@ TEST(ProjectedMipsHessian, ClosedFormIsTheNumericProjectionOfTheExplicitHessian)
     if (std::abs(x(0) - x(3)) < 1e-12 * scale && std::abs(x(1) + x(2)) < 1e-12 * scale) ++conformal;
   }
   EXPECT_GT(conformal, 100);  // the degenerate SVD (s1 = s2) was exercised
+}
+
+// The untangle energy of Garanzha et al. 2021, written out here: ((1 - th) |J|^2 + th (det^2 + 1)) / chi(det, eps)
+// with chi(D, eps) = (D + sqrt(eps^2 + D^2)) / 2.
+double untangle_energy(const Eigen::Vector4d& x, double eps, double th) {
+  const double D = x(0) * x(3) - x(1) * x(2);
+  return ((1 - th) * x.squaredNorm() + th * (D * D + 1)) / (0.5 * (D + std::sqrt(eps * eps + D * D)));
+}
+
+// Its Hessian by hand, N / chi with N = (1 - th) |J|^2 + th (D^2 + 1), C = dD/dJ, D'' as above:
+// N' = 2 (1 - th) J + 2 th D C, N'' = 2 (1 - th) I + 2 th (C C^T + D D''), chi' = c1 C, chi'' = c2 C C^T + c1 D'',
+// (N / chi)'' = N'' / chi - (N' chi'^T + chi' N'^T) / chi^2 + 2 N chi' chi'^T / chi^3 - N chi'' / chi^2.
+Eigen::Matrix4d explicit_untangle_hessian(const Eigen::Vector4d& x, double eps, double th) {
+  const double D = x(0) * x(3) - x(1) * x(2), r = std::sqrt(eps * eps + D * D);
+  const double chi = 0.5 * (D + r), c1 = 0.5 * (1 + D / r), c2 = eps * eps / (2 * r * r * r);
+  const double N = (1 - th) * x.squaredNorm() + th * (D * D + 1);
+  const Eigen::Vector4d C(x(3), -x(2), -x(1), x(0));
+  Eigen::Matrix4d d2D = Eigen::Matrix4d::Zero();
+  d2D(0, 3) = d2D(3, 0) = 1;
+  d2D(1, 2) = d2D(2, 1) = -1;
+  const Eigen::Vector4d dN = 2 * (1 - th) * x + 2 * th * D * C, dchi = c1 * C;
+  const Eigen::Matrix4d d2N = 2 * (1 - th) * Eigen::Matrix4d::Identity() + 2 * th * (C * C.transpose() + D * d2D);
+  const Eigen::Matrix4d d2chi = c2 * C * C.transpose() + c1 * d2D;
+  return d2N / chi - (dN * dchi.transpose() + dchi * dN.transpose()) / (chi * chi) +
+         2 * N * dchi * dchi.transpose() / (chi * chi * chi) - N * d2chi / (chi * chi);
+}
+
+// Folded Jacobians too: a reflection of half of random_jacobian's.
+Eigen::Vector4d random_signed_jacobian(std::mt19937& rng) {
+  Eigen::Vector4d x = random_jacobian(rng);
+  if (std::uniform_int_distribution<int>(0, 1)(rng)) x(1) = -x(1), x(3) = -x(3);  // J diag(1, -1): det < 0
+  return x;
+}
+
+TEST(ProjectedUntangleHessian, TheTestsOwnHessianMatchesFiniteDifferencesOfTheEnergy) {
+  std::mt19937 rng(17);
+  int checked = 0, folded = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    Eigen::Vector4d x = random_signed_jacobian(rng);
+    x /= std::sqrt(std::abs(x(0) * x(3) - x(1) * x(2)));  // |det| 1
+    if (x.squaredNorm() > 20) continue;  // moderate stretch, where h = 1e-4 resolves the second derivatives
+    const double eps = std::pow(10.0, std::uniform_real_distribution<double>(-1, 0)(rng)), th = 1.0 / 128;
+    ++checked;
+    folded += x(0) * x(3) - x(1) * x(2) < 0;
+    const Eigen::Matrix4d H = explicit_untangle_hessian(x, eps, th);
+    const double h = 1e-4, scale = H.cwiseAbs().maxCoeff();
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j) {
+        const Eigen::Vector4d ei = Eigen::Vector4d::Unit(i) * h, ej = Eigen::Vector4d::Unit(j) * h;
+        const double fd = (untangle_energy(x + ei + ej, eps, th) - untangle_energy(x + ei - ej, eps, th) -
+                           untangle_energy(x - ei + ej, eps, th) + untangle_energy(x - ei - ej, eps, th)) / (4 * h * h);
+        ASSERT_NEAR(fd, H(i, j), 1e-4 * scale) << "trial " << trial << " entry " << i << j;
+      }
+  }
+  EXPECT_GE(checked, 100);
+  EXPECT_GE(folded, 30);
+}
+
+TEST(ProjectedUntangleHessian, ClosedFormIsTheNumericProjectionOfTheExplicitHessian) {
+  std::mt19937 rng(23);
+  int folded = 0, indefinite = 0;
+  for (int trial = 0; trial < 5000; ++trial) {
+    const Eigen::Vector4d x = random_signed_jacobian(rng);
+    const double D = x(0) * x(3) - x(1) * x(2);
+    // eps from 1e-2 to 1e2 times |det J|. Far below, chi = (D + sqrt(eps^2 + D^2)) / 2 of a folded face is the
+    // difference of two nearly equal numbers (at 1e-4 |D|, 8 digits lost) in both forms alike.
+    const double eps = std::abs(D) * std::pow(10.0, std::uniform_real_distribution<double>(-2, 2)(rng));
+    const double th = trial % 2 ? 1.0 / 128 : 0.5;
+    const Eigen::Matrix4d H = explicit_untangle_hessian(x, eps, th);
+    const Eigen::Matrix4d expected = numeric_projection(H);
+    const std::array<double, 16> got = detail::projected_untangle_hessian(x(0), x(1), x(2), x(3), eps, th);
+    const double scale = H.cwiseAbs().maxCoeff();
+    for (int i = 0; i < 4; ++i)
+      for (int j = 0; j < 4; ++j)
+        ASSERT_NEAR(got[4 * i + j], expected(i, j), 1e-7 * scale) << "trial " << trial << " entry " << i << j;
+    folded += D < 0;
+    indefinite += Eigen::SelfAdjointEigenSolver<Eigen::Matrix4d>(H).eigenvalues().minCoeff() < -1e-9 * scale;
+  }
+  EXPECT_GT(folded, 1000);
+  EXPECT_GT(indefinite, 1000);  // the projection did something
 }
 
 // A bumpy grid with a positive but distorted start (the flat grid squeezed towards a corner, interior
