@@ -137,9 +137,7 @@ double regularized_det(double det, double eps) { return 0.5 * (det + std::sqrt(e
 
 namespace {
 
-// The projected Hessian of an isotropic energy of J = U diag(s1, s2) W from its eigensystem (Smith, de Goes &
-// Kim 2019): the twist and flip modes' eigenvalues and the 2 x 2 Hessian [[f11, f12], [f12, f22]] of the
-// scaling modes U diag(e) W; negative eigenvalues dropped.
+// J = U diag(s1, s2) W with U = rot(phi), W = rot(theta), as cosines and sines.
 struct SvdFrame {
   double s1 = 0, s2 = 0;  // s1 >= |s2|; s2 < 0 when det J < 0 (U and W are rotations)
   double cu = 1, su = 0, cw = 1, sw = 0;
@@ -154,6 +152,9 @@ SvdFrame svd_frame(double a, double b, double c, double d) {
   return {Q + R, Q - R, std::cos(phi), std::sin(phi), std::cos(theta), std::sin(theta)};
 }
 
+// The projected Hessian of an isotropic energy of J from its eigensystem (Smith, de Goes & Kim 2019): the
+// twist and flip modes' eigenvalues and the 2 x 2 Hessian [[f11, f12], [f12, f22]] of the scaling modes
+// U diag(e) W in (s1, s2); negative eigenvalues dropped.
 std::array<double, 16> assemble_modes(const SvdFrame& m, double twist, double flip, double f11, double f12, double f22) {
   // The eigenmatrix U M W of a mode M, as a row-major 4-vector.
   auto mode = [&](double m00, double m01, double m10, double m11) {
