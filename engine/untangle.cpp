@@ -4,6 +4,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <optional>
+#include <string>
 
 #include "engine/detail/uv_descent.h"
 #include "engine/error.h"
@@ -256,19 +258,21 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
   // straight to every face positive around a branch point (maze / weak_fan: the hub's turn at 0, another vertex's
   // angle sum 4 pi) and from the composed start kept 350 folds after 3,270 steps (34 s): L-BFGS then, as before.
   const bool all_zero_rotation = std::all_of(rotation.begin(), rotation.end(), [](int r) { return r == 0; });
-  // Whether x, every face positive, passes verify as the untangled answer would.
-  auto verified = [&](const std::vector<Point2>& x) {
+  // verify's complaint about x (every face positive) as the untangled answer, empty when it passes; the angle
+  // sums and rotation indices are its checks. uv_error: that of uv, once known.
+  auto verify_error = [&](const std::vector<Point2>& x) -> std::string {
     Untangling probe;
     probe.inserted = out.inserted;
     probe.faces = out.faces;
     probe.uv = x;
     try {
       verify_map(source, loop, polygon, rotation, untangled_map(source, probe));
-    } catch (const InternalError&) {
-      return false;
+    } catch (const InternalError& e) {
+      return e.what();
     }
-    return true;
+    return {};
   };
+  std::optional<std::string> uv_error;
   for (int pass = 0;; ++pass) {
     const std::vector<Triangle>& faces = out.faces.empty() ? source.faces : out.faces;
     if (untangle_locally(faces)) {
@@ -295,12 +299,14 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
       descent.harmonic(other);
       if (count_non_positive(other, faces) < count_non_positive(uv, faces)) std::swap(uv, other);
       out.flipped_after = run(descent, faces, uv, steps_in_all / 2, newton);
-      const bool branched = out.flipped_after == 0 && !verified(uv);
+      if (out.flipped_after == 0) uv_error = verify_error(uv);
+      const bool branched = uv_error && !uv_error->empty();
       if ((out.flipped_after > 0 || branched) && spent() < steps_in_all) {
         const int left = run(descent, faces, other, (steps_in_all - spent()) / (branched ? 1 : 2), newton);
         if (branched || left < out.flipped_after) {
           out.flipped_after = left;
           uv.swap(other);
+          uv_error.reset();
         }
       }
     } else {
@@ -344,14 +350,11 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
     out.uv = std::move(uv);  // the last iterate: where its folds are is where refinement is needed
     return out;
   }
-  // Every face positive; the angle sums and rotation indices are verify's checks, run on the candidate.
-  out.uv = uv;
-  RefinedMap candidate = untangled_map(source, out);
-  try {
-    verify_map(source, loop, polygon, rotation, candidate);
-  } catch (const InternalError& e) {
-    out.outcome = std::string("failed: every face positive, but ") + e.what();
-    out.uv = std::move(candidate.uv);
+  // Every face positive: verify decides (once per map).
+  const std::string why = uv_error ? *uv_error : verify_error(uv);
+  if (!why.empty()) {
+    out.outcome = "failed: every face positive, but " + why;
+    out.uv = std::move(uv);
     return out;
   }
   out.succeeded = true;
@@ -360,7 +363,7 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
                 std::to_string(out.rounds) + " rounds, " + std::to_string(out.iterations) +
                 (out.newton ? " steps (projected Newton)" : " steps") +
                 (out.inserted.empty() ? "" : " after splitting " + std::to_string(out.inserted.size()) + " chords");
-  out.uv = std::move(candidate.uv);
+  out.uv = std::move(uv);
   return out;
 }
 
