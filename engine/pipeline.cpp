@@ -15,6 +15,7 @@
 #include "engine/flip_check.h"
 #include "engine/fold_region.h"
 #include "engine/reference_metric.h"
+#include "engine/slide_inserted.h"
 #include "engine/target_mesh.h"
 #include "engine/teichmuller.h"
 #include "engine/validate.h"
@@ -252,6 +253,16 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
       });
     } else if (out.metric.reproduced) {
       out.optimization.outcome = "not needed: the answer is the reference map itself (every triangle at its rest shape)";
+    }
+    // Where on its edge an inserted point lies is free: the objective of the stage before picks it
+    // (engine/slide_inserted.h). Only after an optimization (not with optimize none, nor in a fold region's own
+    // run, whose map is optimized as a whole afterwards), and not with a metric, whose rest shapes are T's.
+    const bool optimized = relax_max_k || out.optimization.ran;
+    if (optimized && !metric && !out.map.inserted.empty()) {
+      out.sliding = run_stage(Stage::optimize, time.optimize, cancel, {}, [&] {
+        return slide_inserted_points(work_mesh, out.map, relax_max_k ? SlideObjective::max_k : SlideObjective::mean_k,
+                                     cancel);
+      });
     }
     // Quality is scale-invariant: measured at the working scale, where areas neither overflow nor underflow.
     // (Copies only when a scale applies: otherwise to_caller_scale leaves the values as they are.)

@@ -20,6 +20,7 @@
 #include "engine/reference_metric.h"
 #include "engine/refine.h"
 #include "engine/relocate.h"
+#include "engine/slide_inserted.h"
 #include "engine/untangle.h"
 #include "engine/verify.h"
 
@@ -73,6 +74,7 @@ struct ParametrizeResult {
   Relocation relocation;            // flips of the composed map, and the vertices moved to undo some (compose)
   Untangling untangling;            // flips before and after untangling; succeeded: no refinement was needed
   Optimization optimization;        // energy and distortion before optimization (after: `distortion`)
+  Sliding sliding;                  // inserted points slid along their edges after it (engine/slide_inserted.h)
   ExtremalReport extremal;          // method extremal only (ran: false otherwise)
   MetricReport metric;              // options.metric (paper 5.2): the path taken, T's flips, distance to T
   int flipped = 0;                  // non-positive uv triangles of the result: 0 whenever refine is on

@@ -623,7 +623,8 @@ ordered_json detail::result_json(const lipmap::ParametrizeResult& r, bool big) {
                      {"points_before_simplification", m.points_before_simplification},
                      {"simplification_rounds", m.simplification_rounds},
                      {"regions", m.regions},
-                     {"region_faces", m.region_faces}};
+                     {"region_faces", m.region_faces},
+                     {"points_slid", r.sliding.points_moved}};
   d["untangling"] = {{"attempted", r.untangling.attempted},
                      {"succeeded", r.untangling.succeeded},
                      {"flipped_before", r.untangling.flipped_before},
