@@ -524,7 +524,7 @@ ExtremalRelaxation relax_round(const DiskMesh& source, const std::vector<int>& l
     star.clear();
     for (int h : topo.fan(v)) star.push_back(MeshTopology::face_of(h));
     auto place = [&](double t) {
-      map.vertices[static_cast<std::size_t>(v)] = {a.x + t * (b.x - a.x), a.y + t * (b.y - a.y), a.z + t * (b.z - a.z)};
+      map.vertices[static_cast<std::size_t>(v)] = point_on_edge(a, b, t);
       for (int f : star) {
         const Triangle& tri = map.faces[static_cast<std::size_t>(f)];
         inv[static_cast<std::size_t>(f)] = rest_inverse(map.vertices[static_cast<std::size_t>(tri[0])], map.vertices[static_cast<std::size_t>(tri[1])],

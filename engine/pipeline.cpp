@@ -91,8 +91,7 @@ void to_caller_scale(RefinedMap& map, const DiskMesh& caller_mesh, const std::ve
   for (std::size_t v = 0; v < nv; ++v) map.vertices[v] = caller_mesh.vertices[v];
   for (std::size_t i = 0; i < map.inserted.size(); ++i) {
     const InsertedVertex& iv = map.inserted[i];
-    const Point3 &pa = caller_mesh.vertices[iv.a], &pb = caller_mesh.vertices[iv.b];
-    map.vertices[nv + i] = {pa.x + iv.t * (pb.x - pa.x), pa.y + iv.t * (pb.y - pa.y), pa.z + iv.t * (pb.z - pa.z)};
+    map.vertices[nv + i] = point_on_edge(caller_mesh.vertices[iv.a], caller_mesh.vertices[iv.b], iv.t);
   }
   for (std::size_t v = 0; v < map.uv.size(); ++v) {
     const Point2 back = scaled(map.uv[v], polygon_k);

@@ -644,8 +644,7 @@ private:
         const EdgePoint& p = points_[e][k];
         if (p.removed) continue;
         id[point_base_[e] + k] = static_cast<int>(out.vertices.size());
-        const Point3 &pa = source_.vertices[a], &pb = source_.vertices[b];
-        out.vertices.push_back({pa.x + p.t * (pb.x - pa.x), pa.y + p.t * (pb.y - pa.y), pa.z + p.t * (pb.z - pa.z)});
+        out.vertices.push_back(point_on_edge(source_.vertices[a], source_.vertices[b], p.t));
         out.uv.push_back(p.uv);
         out.inserted.push_back({a, b, p.t});
       }

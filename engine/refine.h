@@ -24,6 +24,12 @@ struct InsertedVertex {
   double t = 0;
 };
 
+// The contract's position of a point at t on the edge from a to b: a + t (b - a), coordinate by coordinate (verify
+// and the checkers expect these very doubles).
+inline Point3 point_on_edge(const Point3& a, const Point3& b, double t) {
+  return {a.x + t * (b.x - a.x), a.y + t * (b.y - a.y), a.z + t * (b.z - a.z)};
+}
+
 struct RefinedMap {
   std::vector<Point3> vertices;          // original vertices first (same index, same position), then inserted
   std::vector<Triangle> faces;

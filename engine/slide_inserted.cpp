@@ -21,10 +21,6 @@ constexpr int kGoldenSteps = 24;  // then golden sections around the best trial
 constexpr double kMargin = 1e-3;
 constexpr double kGain = 1e-6;  // a move must lower the objective by this relative amount
 
-Point3 lerp(const Point3& a, const Point3& b, double t) {
-  return {a.x + t * (b.x - a.x), a.y + t * (b.y - a.y), a.z + t * (b.z - a.z)};
-}
-
 double area3(const Point3& p0, const Point3& p1, const Point3& p2) {
   const double ax = p1.x - p0.x, ay = p1.y - p0.y, az = p1.z - p0.z;
   const double bx = p2.x - p0.x, by = p2.y - p0.y, bz = p2.z - p0.z;
@@ -64,7 +60,7 @@ Sliding slide_inserted_points(const DiskMesh& source, RefinedMap& map, SlideObje
   const double inf = std::numeric_limits<double>::infinity();
   auto local = [&](std::size_t i, double t) {
     const InsertedVertex& iv = map.inserted[i];
-    const Point3 at = lerp(source.vertices[iv.a], source.vertices[iv.b], t);
+    const Point3 at = point_on_edge(source.vertices[iv.a], source.vertices[iv.b], t);
     Local l;
     for (int f : faces_at[i]) {
       const Triangle& tri = map.faces[f];
@@ -129,7 +125,7 @@ Sliding slide_inserted_points(const DiskMesh& source, RefinedMap& map, SlideObje
         if (!(l.sum <= l0.sum && l.worst <= global_max)) continue;
       }
       map.inserted[i].t = best_t;
-      map.vertices[nv + i] = lerp(source.vertices[map.inserted[i].a], source.vertices[map.inserted[i].b], best_t);
+      map.vertices[nv + i] = point_on_edge(source.vertices[map.inserted[i].a], source.vertices[map.inserted[i].b], best_t);
       moved[i] = 1;
       ++moves;
     }

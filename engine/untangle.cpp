@@ -48,10 +48,6 @@ double shoelace(const std::vector<Point2>& p) {
   return 0.5 * a;
 }
 
-Point3 lerp(const Point3& a, const Point3& b, double t) {
-  return {a.x + t * (b.x - a.x), a.y + t * (b.y - a.y), a.z + t * (b.z - a.z)};
-}
-
 // near[v]: v is a corner of a face not positive under uv, or within `rings` rings of one (over `faces`).
 std::vector<char> near_folds(const std::vector<Triangle>& faces, const std::vector<Point2>& uv, std::size_t nv,
                              int rings) {
@@ -134,7 +130,7 @@ std::vector<Triangle> split_faces(const DiskMesh& source, const std::vector<int>
 RefinedMap untangled_map(const DiskMesh& source, Untangling& u) {
   RefinedMap m;
   m.vertices = source.vertices;
-  for (const InsertedVertex& iv : u.inserted) m.vertices.push_back(lerp(source.vertices[iv.a], source.vertices[iv.b], iv.t));
+  for (const InsertedVertex& iv : u.inserted) m.vertices.push_back(point_on_edge(source.vertices[iv.a], source.vertices[iv.b], iv.t));
   m.faces = u.faces.empty() ? source.faces : u.faces;
   m.inserted = u.inserted;
   m.uv = std::move(u.uv);
@@ -161,7 +157,7 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
     for (std::size_t i = from; i < out.inserted.size(); ++i) {
       const InsertedVertex& iv = out.inserted[i];
       uv.push_back({0.5 * (uv[iv.a].x + uv[iv.b].x), 0.5 * (uv[iv.a].y + uv[iv.b].y)});
-      shape.push_back(lerp(shape[iv.a], shape[iv.b], iv.t));
+      shape.push_back(point_on_edge(shape[iv.a], shape[iv.b], iv.t));
       pinned.push_back(0);
     }
     out.faces = out.inserted.empty() ? std::vector<Triangle>{} : split_faces(source, midpoint);
