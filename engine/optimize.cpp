@@ -187,7 +187,12 @@ Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, 
   };
   // MIPS lowers the mean of K + 1/K; the mean of K itself could, in principle, rise a little (seen: 4.4614 ->
   // 4.4627 on a C-shaped target). The stage promises lower conformal distortion, so it keeps the start then.
-  if (rotation && !rotation->empty() && !rest && !map.inserted.empty()) {
+  // The free descents are extra rounds beyond the stage's work bound, so they run only where its step budget is
+  // above the kMinOptimizeSteps floor (fewer than about 67k triangles, or a time budget given): on larger maps a
+  // free descent plus the polish costs at least twice the bound (bench_pipeline --large, one inserted point:
+  // optimize at 1M triangles 10.7 s with the pinned descent alone, 29 s with the free one before it).
+  const bool free_affordable = step_budget(options, map.faces.size()) > kMinOptimizeSteps;
+  if (rotation && !rotation->empty() && !rest && !map.inserted.empty() && free_affordable) {
     RefinedMap freed = map;
     auto [o, mean] = run(freed, true);
     // Measured over different triangulations (simplify_again triangulates the refined faces again), but both

@@ -3,7 +3,8 @@
 // the conformal distortion (tests/support/pipeline_cases.h), never with the engine's own verify or quality.
 //
 //   OptimizeStage      optimize_map alone on perturbed grids: energy and mean K never rise, every face stays
-//                      positive (exact), the boundary keeps its doubles, inserted-face corners stay pinned.
+//                      positive (exact), the boundary keeps its doubles, inserted-face corners stay pinned;
+//                      a refined map at the step floor stays within the stage's work bound.
 //   OptimizePipeline   the whole pipeline: on a circle target, the optimized mean K is lower than the plain
 //                      harmonic map's on every shared disk mesh; on the by-construction kinds and the weakly
 //                      self-overlapping fan, every answer passes the contract and mean K does not rise; refined
@@ -73,6 +74,46 @@ TEST(OptimizeStage, EveryStepKeepsEveryTrianglePositiveAndLowersTheEnergy) {
         if (energy == OptimizeEnergy::mips) EXPECT_LT(k_after, k_before) << where;
       }
   EXPECT_GE(cases, 16);
+}
+
+// The stage's work bound (optimize.h, kOptimizeFaceSteps) holds on a refined map whose step budget is at the
+// kMinOptimizeSteps floor: a 72k-triangle grid with one point inserted in the middle of a diagonal gets one descent
+// within that budget, not the free descents first (which cost one more descent: 60 steps here, and 29 s instead of
+// 10.7 s at 1M triangles). The point, removable on this map, stays: only the free descents remove points.
+TEST(OptimizeStage, ARefinedMapAtTheStepFloorStaysWithinTheWorkBound) {
+  const int n = 190;
+  const DiskMesh mesh = validate_mesh(bumpy_grid(n));
+  RefinedMap map;
+  map.vertices = mesh.vertices;
+  for (const Point3& p : mesh.vertices) map.uv.push_back({p.x * p.x, std::pow(p.y, 1.7)});
+  // Split the diagonal (a, b) of the middle cell, shared by (a, r, b) and (a, b, u), at its midpoint m.
+  const int i = n / 2, a = i * (n + 1) + i, r = a + 1, b = a + n + 2, u = a + n + 1, m = static_cast<int>(map.vertices.size());
+  map.vertices.push_back(point_on_edge(mesh.vertices[a], mesh.vertices[b], 0.5));
+  map.uv.push_back({0.5 * (map.uv[a].x + map.uv[b].x), 0.5 * (map.uv[a].y + map.uv[b].y)});
+  map.inserted.push_back({a, b, 0.5});
+  for (const Triangle& t : mesh.faces) {
+    if (t == Triangle{a, r, b}) {
+      map.faces.push_back({a, r, m});
+      map.faces.push_back({m, r, b});
+    } else if (t == Triangle{a, b, u}) {
+      map.faces.push_back({a, m, u});
+      map.faces.push_back({m, b, u});
+    } else {
+      map.faces.push_back(t);
+    }
+  }
+  ASSERT_EQ(map.faces.size(), mesh.faces.size() + 2);
+  ASSERT_EQ(count_folded_by_checker(map.uv, map.faces), 0);
+  const std::vector<int> rotation(mesh.boundary_loop.size(), 0);
+  const ParametrizeOptions o;
+  ASSERT_EQ(step_budget(o, map.faces.size()), kMinOptimizeSteps);
+  const Optimization result = optimize_map(mesh, mesh.boundary_loop, 1.0, map, o, nullptr, nullptr, &rotation);
+  EXPECT_TRUE(result.ran) << result.outcome;
+  EXPECT_GT(result.iterations, 0);
+  EXPECT_LE(result.iterations, kMinOptimizeSteps) << result.outcome;
+  EXPECT_EQ(result.points_removed, 0);
+  EXPECT_EQ(map.inserted.size(), 1u);
+  EXPECT_EQ(count_folded_by_checker(map.uv, map.faces), 0);
 }
 
 TEST(OptimizeStage, NotRunOnAMapWithFlips) {
