@@ -6,6 +6,7 @@
 
 #include "engine/detail/uv_descent.h"
 #include "engine/flip_check.h"
+#include "engine/fold_region.h"
 
 namespace lipmap {
 
@@ -53,12 +54,26 @@ namespace {
 // round removes fewer: bench_quality maze / weak_fan 12,231 -> 11,640 points after one, 10,380 after four.
 constexpr int kFreeRounds = 4;
 
+// Where the stage's step budget is at its floor (maps of about 67k triangles and more), a free descent of the
+// whole map plus the polish would cost at least twice the stage's work bound (bench_pipeline --large, exp_strip
+// with one inserted point: optimize at 1M triangles 29 s instead of 10.7 s). There the free descents move only
+// the vertices within kFreeRings rings of the inserted points (the folds they were inserted for, as in
+// untangling's local attempts), so their cost follows the refinement, not the map.
+constexpr int kFreeRings = 6;
+
 // The boundary, plus (keep_refined) the inserted vertices and the original corners of the source faces that
 // carry them: those faces' refined polygons then stay as the refinement minimized them.
+// Or (free_rings >= 0, with keep_refined false) every vertex farther than free_rings rings from the inserted ones.
 std::vector<char> pinned_vertices(const DiskMesh& source, const std::vector<int>& loop, const RefinedMap& map,
-                                  bool keep_refined) {
+                                  bool keep_refined, int free_rings = -1) {
   const std::size_t nv = map.vertices.size(), nv_source = source.vertices.size();
   std::vector<char> pinned(nv, 0);
+  if (free_rings >= 0) {
+    std::vector<char> near(nv, 0);
+    for (std::size_t i = nv_source; i < nv; ++i) near[i] = 1;
+    grow_by_rings(map.faces, near, free_rings);
+    for (std::size_t v = 0; v < nv; ++v) pinned[v] = !near[v];
+  }
   for (int v : loop) pinned[v] = 1;
   if (!keep_refined) return pinned;
   for (std::size_t i = nv_source; i < nv; ++i) {
@@ -154,14 +169,16 @@ Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, 
   // descent with the refined polygons pinned polishes what is left. Kept when neither the mean K nor the energy
   // ends above the start's; else the plain descent runs on the map as it came.
   // Each attempt fills its own report; `before` (with its per-face K) is moved into the one returned.
+  const int free_rings = step_budget(options, map.faces.size()) > kMinOptimizeSteps ? -1 : kFreeRings;
   auto run = [&](RefinedMap& m, bool free_first) {
     Optimization o;
     o.energy = out.energy;
     Descent first;  // the free descents together (free_first: never with rest shapes)
     for (int round = 0; free_first && round < kFreeRounds; ++round) {
       const std::size_t points = m.inserted.size();
-      const Descent d = descend(m.vertices, m, pinned_vertices(source, loop, m, false), uv_area, options, s,
+      const Descent d = descend(m.vertices, m, pinned_vertices(source, loop, m, false, free_rings), uv_area, options, s,
                                 options.max_iterations - first.outcome.iterations);
+      o.free_descent_vertices = std::max(o.free_descent_vertices, d.free_vertices);
       if (round == 0) first = d;
       else first.outcome.iterations += d.outcome.iterations;
       if (!d.ran || d.outcome.iterations == 0 || !simplify_again(source, loop, *rotation, m, cancel)) break;
@@ -187,12 +204,7 @@ Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, 
   };
   // MIPS lowers the mean of K + 1/K; the mean of K itself could, in principle, rise a little (seen: 4.4614 ->
   // 4.4627 on a C-shaped target). The stage promises lower conformal distortion, so it keeps the start then.
-  // The free descents are extra rounds beyond the stage's work bound, so they run only where its step budget is
-  // above the kMinOptimizeSteps floor (fewer than about 67k triangles, or a time budget given): on larger maps a
-  // free descent plus the polish costs at least twice the bound (bench_pipeline --large, one inserted point:
-  // optimize at 1M triangles 10.7 s with the pinned descent alone, 29 s with the free one before it).
-  const bool free_affordable = step_budget(options, map.faces.size()) > kMinOptimizeSteps;
-  if (rotation && !rotation->empty() && !rest && !map.inserted.empty() && free_affordable) {
+  if (rotation && !rotation->empty() && !rest && !map.inserted.empty()) {
     RefinedMap freed = map;
     auto [o, mean] = run(freed, true);
     // Measured over different triangulations (simplify_again triangulates the refined faces again), but both

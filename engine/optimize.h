@@ -14,9 +14,9 @@
 // indices, without a reference metric) every vertex off the boundary moves first, inserted ones in uv only
 // (their 3D points stay on their edges): that undoes folds some points were inserted for, and the points it
 // leaves removable are removed (refine.h's simplify_again, the rounds of Fig. 11 on the moved map; contract
-// point 6 holds again); this first way only where the stage's step budget is above its floor (see
-// kOptimizeFaceSteps: maps of fewer than about 67k triangles, or a time budget given). Then, and on every refined
-// map otherwise, the inserted vertices and the original
+// point 6 holds again); where the stage's step budget is at its floor (see kOptimizeFaceSteps: maps of about 67k
+// triangles and more, without a time budget) only the vertices within a few rings of the inserted ones move in
+// this first way. Then, and on every refined map otherwise, the inserted vertices and the original
 // corners of the source faces that carry them stay: those faces' refined polygons are the ones the refinement
 // minimized (paper 4, Fig. 11: no inserted point removable), and moving their corners could make a point
 // removable after the fact. Every other vertex of a refined mesh moves freely. The first way is kept when
@@ -65,6 +65,7 @@ struct Optimization {
   double energy_before = 0, energy_after = 0;  // rest-area-weighted mean of the energy
   Distortion before;         // conformal distortion of the map it started from (after: the quality stage's)
   int points_removed = 0;    // inserted points the free descent left removable, removed (see "What moves")
+  int free_descent_vertices = 0;  // vertices the free descents could move (0: none ran)
 };
 
 // map: a refined map at the working scale with every face strictly positive; its uv is changed in place.

@@ -648,6 +648,7 @@ ordered_json detail::result_json(const lipmap::ParametrizeResult& r, bool big) {
                        {"iterations", opt.iterations},
                        {"free_vertices", opt.free_vertices},
                        {"points_removed", opt.points_removed},
+                       {"free_descent_vertices", opt.free_descent_vertices},
                        {"energy_before", finite_or_null(opt.energy_before)},
                        {"energy_after", finite_or_null(opt.energy_after)},
                        {"distortion_before", opt.ran ? distortion_json(opt.before) : ordered_json(nullptr)}};
