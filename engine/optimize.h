@@ -65,7 +65,7 @@ struct Optimization {
   double energy_before = 0, energy_after = 0;  // rest-area-weighted mean of the energy
   Distortion before;         // conformal distortion of the map it started from (after: the quality stage's)
   int points_removed = 0;    // inserted points the free descent left removable, removed (see "What moves")
-  int free_descent_vertices = 0;  // vertices the free descents could move (0: none ran)
+  int free_descent_vertices = 0;  // vertices the kept free descents could move (0: none ran, or not kept)
 };
 
 // map: a refined map at the working scale with every face strictly positive; its uv is changed in place.

@@ -369,91 +369,95 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
     }
   }
 
-  const TargetMesh target = run_stage(Stage::target_mesh, time.target_mesh, cancel, progress, [&] {
-    TargetMeshOptions mesher;
-    mesher.density = options.target_density;
-    mesher.source_triangles = static_cast<int>(input.mesh.faces.size());
-    return build_target_mesh(work_polygon, out.classification.triangulation, mesher, cancel);
-  });
-  out.target_mesh = {static_cast<int>(target.vertices.size()), static_cast<int>(target.faces.size()), target.pieces,
-                     target.min_angle_deg};
+  // The paper's path. Its target mesh, both disk maps and the composition end with this block: the map is
+  // built, and at 1M triangles they hold tens of MB beside the optimization's factorization, the run's peak.
+  {
+    const TargetMesh target = run_stage(Stage::target_mesh, time.target_mesh, cancel, progress, [&] {
+      TargetMeshOptions mesher;
+      mesher.density = options.target_density;
+      mesher.source_triangles = static_cast<int>(input.mesh.faces.size());
+      return build_target_mesh(work_polygon, out.classification.triangulation, mesher, cancel);
+    });
+    out.target_mesh = {static_cast<int>(target.vertices.size()), static_cast<int>(target.faces.size()), target.pieces,
+                       target.min_angle_deg};
 
-  struct DiskMaps { DiskMap source, target; };
-  const DiskMaps disk = run_stage(Stage::intermediate_maps, time.intermediate_maps, cancel, progress, [&] {
-    DiskMaps maps;
-    std::vector<Point3> planar(target.vertices.size());
-    for (std::size_t v = 0; v < planar.size(); ++v) planar[v] = {target.vertices[v].x, target.vertices[v].y, 0};
-    std::vector<int> target_loop(work_polygon.vertices.size());
-    std::iota(target_loop.begin(), target_loop.end(), 0);
-    if (options.method == MapMethod::extremal) {
-      // Paper 5.3: both onto a convex domain M_c, the target conformally, the source by a Teichmuller map.
-      ConvexDomain domain = map_to_convex_domain({&planar, &target.faces, &target_loop}, cancel);
-      maps.target = std::move(domain.map);
-      require_bijective(maps.target, "target mesh");
-      DiskMapInput source_in{&work_mesh.vertices, &work_mesh.faces, &input.boundary.loop};
-      source_in.boundary_positions = &domain.boundary;
-      TeichmullerMap teich = teichmuller_map(source_in, work_mesh.topology, {}, cancel);
-      maps.source = std::move(teich.map);
+    struct DiskMaps { DiskMap source, target; };
+    const DiskMaps disk = run_stage(Stage::intermediate_maps, time.intermediate_maps, cancel, progress, [&] {
+      DiskMaps maps;
+      std::vector<Point3> planar(target.vertices.size());
+      for (std::size_t v = 0; v < planar.size(); ++v) planar[v] = {target.vertices[v].x, target.vertices[v].y, 0};
+      std::vector<int> target_loop(work_polygon.vertices.size());
+      std::iota(target_loop.begin(), target_loop.end(), 0);
+      if (options.method == MapMethod::extremal) {
+        // Paper 5.3: both onto a convex domain M_c, the target conformally, the source by a Teichmuller map.
+        ConvexDomain domain = map_to_convex_domain({&planar, &target.faces, &target_loop}, cancel);
+        maps.target = std::move(domain.map);
+        require_bijective(maps.target, "target mesh");
+        DiskMapInput source_in{&work_mesh.vertices, &work_mesh.faces, &input.boundary.loop};
+        source_in.boundary_positions = &domain.boundary;
+        TeichmullerMap teich = teichmuller_map(source_in, work_mesh.topology, {}, cancel);
+        maps.source = std::move(teich.map);
+        require_bijective(maps.source, "source mesh");
+        ExtremalReport& e = out.extremal;
+        e.ran = true;
+        e.conformal_boundary = domain.conformal_boundary;
+        e.domain_fallback = domain.fallback;
+        e.closing_change = domain.closing_change;
+        e.scale_factor_range = domain.scale_factor_range;
+        e.k = teich.k;
+        e.iterations = teich.iterations;
+        e.chosen_iteration = teich.chosen_iteration;
+        e.folded_iterates = teich.folded_iterates;
+        e.harmonic_max_dilatation = teich.harmonic_max_dilatation;
+        e.max_dilatation = teich.max_dilatation;
+        return maps;
+      }
+      const DiskMapInput source_input{&work_mesh.vertices, &work_mesh.faces, &input.boundary.loop};
+      // Paper 5.2: h_s's cotangent weights from T's edge lengths (Tutte's uniform weights have no metric).
+      if (metric && options.method == MapMethod::harmonic)
+        maps.source = map_to_disk_with_laplacian(
+            source_input,
+            laplacian_from_cotangents(static_cast<int>(work_mesh.vertices.size()), work_mesh.faces, metric->cotangents),
+            true, cancel);
+      else
+        maps.source = map_to_disk(source_input, options.method, cancel);
       require_bijective(maps.source, "source mesh");
-      ExtremalReport& e = out.extremal;
-      e.ran = true;
-      e.conformal_boundary = domain.conformal_boundary;
-      e.domain_fallback = domain.fallback;
-      e.closing_change = domain.closing_change;
-      e.scale_factor_range = domain.scale_factor_range;
-      e.k = teich.k;
-      e.iterations = teich.iterations;
-      e.chosen_iteration = teich.chosen_iteration;
-      e.folded_iterates = teich.folded_iterates;
-      e.harmonic_max_dilatation = teich.harmonic_max_dilatation;
-      e.max_dilatation = teich.max_dilatation;
+      maps.target = map_to_disk({&planar, &target.faces, &target_loop}, options.method, cancel);
+      require_bijective(maps.target, "target mesh");
       return maps;
+    });
+    out.source_map_solution = disk.source.solution;
+    out.target_map_solution = disk.target.solution;
+
+    // Relocation moves tangled vertices' disk points (h_s becomes h_s'), so refine works on this copy.
+    std::vector<Point2> source_disk = disk.source.uv;
+    const Composition composition = run_stage(Stage::compose, time.compose, cancel, progress, [&] {
+      Composition c = compose(work_mesh, input.boundary.loop, source_disk, target, disk.target.uv, cancel);
+      out.relocation = relocate_tangled_vertices(work_mesh, input.boundary.loop, source_disk, c, target, cancel);
+      return c;
+    });
+
+    // Untangle the unrefined map when it folds; refinement (paper 4) only when that fails (engine/untangle.h).
+    if (options.refine && options.untangle) {
+      out.untangling = run_stage(Stage::untangle, time.untangle, cancel, progress, [&] {
+        return untangle(work_mesh, input.boundary.loop, work_polygon, out.classification.rotation_indices,
+                        composition.uv, cancel, metric ? &metric->rest : nullptr);
+      });
     }
-    const DiskMapInput source_input{&work_mesh.vertices, &work_mesh.faces, &input.boundary.loop};
-    // Paper 5.2: h_s's cotangent weights from T's edge lengths (Tutte's uniform weights have no metric).
-    if (metric && options.method == MapMethod::harmonic)
-      maps.source = map_to_disk_with_laplacian(
-          source_input,
-          laplacian_from_cotangents(static_cast<int>(work_mesh.vertices.size()), work_mesh.faces, metric->cotangents),
-          true, cancel);
-    else
-      maps.source = map_to_disk(source_input, options.method, cancel);
-    require_bijective(maps.source, "source mesh");
-    maps.target = map_to_disk({&planar, &target.faces, &target_loop}, options.method, cancel);
-    require_bijective(maps.target, "target mesh");
-    return maps;
-  });
-  out.source_map_solution = disk.source.solution;
-  out.target_map_solution = disk.target.solution;
-
-  // Relocation moves tangled vertices' disk points (h_s becomes h_s'), so refine works on this copy.
-  std::vector<Point2> source_disk = disk.source.uv;
-  const Composition composition = run_stage(Stage::compose, time.compose, cancel, progress, [&] {
-    Composition c = compose(work_mesh, input.boundary.loop, source_disk, target, disk.target.uv, cancel);
-    out.relocation = relocate_tangled_vertices(work_mesh, input.boundary.loop, source_disk, c, target, cancel);
-    return c;
-  });
-
-  // Untangle the unrefined map when it folds; refinement (paper 4) only when that fails (engine/untangle.h).
-  if (options.refine && options.untangle) {
-    out.untangling = run_stage(Stage::untangle, time.untangle, cancel, progress, [&] {
-      return untangle(work_mesh, input.boundary.loop, work_polygon, out.classification.rotation_indices,
-                      composition.uv, cancel, metric ? &metric->rest : nullptr);
+    out.map = run_stage(Stage::refine, time.refine, cancel, progress, [&] {
+      // An untangled map is the answer as it stands: refine(..., false) would only rebuild the composed map
+      // that it replaces (and its flip count, which is reported from the relocation below).
+      if (out.untangling.succeeded) return untangled_map(work_mesh, out.untangling);
+      if (!whole_mesh && out.untangling.attempted && !metric) {
+        std::optional<RefinedMap> local =
+            refine_in_fold_regions(work_mesh, input.boundary.loop, work_polygon, out.classification.rotation_indices,
+                                   {&composition.uv, &out.untangling.uv}, options, cancel);
+        if (local) return std::move(*local);
+      }
+      return refine(work_mesh, input.boundary.loop, out.classification.rotation_indices, source_disk, target,
+                    disk.target.uv, composition, options.refine, cancel);
     });
   }
-  out.map = run_stage(Stage::refine, time.refine, cancel, progress, [&] {
-    // An untangled map is the answer as it stands: refine(..., false) would only rebuild the composed map
-    // that it replaces (and its flip count, which is reported from the relocation below).
-    if (out.untangling.succeeded) return untangled_map(work_mesh, out.untangling);
-    if (!whole_mesh && out.untangling.attempted && !metric) {
-      std::optional<RefinedMap> local = refine_in_fold_regions(work_mesh, input.boundary.loop, work_polygon,
-                                                               out.classification.rotation_indices,
-                                                               {&composition.uv, &out.untangling.uv}, options, cancel);
-      if (local) return std::move(*local);
-    }
-    return refine(work_mesh, input.boundary.loop, out.classification.rotation_indices, source_disk, target,
-                  disk.target.uv, composition, options.refine, cancel);
-  });
   // Reported as the paper's "flipped before refinement": the composed map's flips, before relocation.
   out.map.flipped_before_refinement = out.relocation.flipped_before;
   finish();
