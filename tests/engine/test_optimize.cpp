@@ -88,7 +88,8 @@ SplitGrid grid_with_a_split_diagonal(int n) {
   RefinedMap& map = g.map;
   map.vertices = g.mesh.vertices;
   for (const Point3& p : g.mesh.vertices) map.uv.push_back({p.x * p.x, std::pow(p.y, 1.7)});
-  const int i = n / 2, a = i * (n + 1) + i, r = a + 1, b = a + n + 2, u = a + n + 1, m = static_cast<int>(map.vertices.size());
+  const int i = n / 2, a = i * (n + 1) + i, r = a + 1, b = a + n + 2, u = a + n + 1;
+  const int m = static_cast<int>(map.vertices.size());
   map.vertices.push_back(point_on_edge(g.mesh.vertices[a], g.mesh.vertices[b], 0.5));
   map.uv.push_back({0.5 * (map.uv[a].x + map.uv[b].x), 0.5 * (map.uv[a].y + map.uv[b].y)});
   map.inserted.push_back({a, b, 0.5});
