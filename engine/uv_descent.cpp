@@ -143,13 +143,35 @@ struct SvdFrame {
   double cu = 1, su = 0, cw = 1, sw = 0;
 };
 
-// J = rot(phi) diag(s1, s2) rot(theta): the closed-form signed SVD of a 2 x 2 matrix.
+// |(x, y)|: sqrt of the sum of squares where that neither overflows nor underflows, std::hypot (several
+// times slower, and the untangler's Newton steps spent a sixth of their time in it) elsewhere.
+double length(double x, double y) {
+  const double r = std::sqrt(x * x + y * y);
+  return r > 1e-150 && r < 1e150 ? r : std::hypot(x, y);
+}
+
+// (cos(a / 2), sin(a / 2)) for a = atan2(y, x) in (-pi, pi], r = |(x, y)| > 0: the principal square root of the
+// unit complex number (x + i y) / r, without trigonometric calls. Each form divides by the larger half.
+std::array<double, 2> half_angle(double x, double y, double r) {
+  const double c = x / r;
+  if (c >= 0) {
+    const double h = std::sqrt(0.5 * (1 + c));
+    return {h, y / r / (2 * h)};
+  }
+  const double h = std::sqrt(0.5 * (1 - c));
+  return {std::abs(y) / r / (2 * h), std::copysign(h, y)};
+}
+
+// J = rot(phi) diag(s1, s2) rot(theta): the closed-form signed SVD of a 2 x 2 matrix, with phi = (a2 + a1) / 2
+// and theta = (a2 - a1) / 2 for a1 = atan2(G, F), a2 = atan2(H, E) (angle 0 where the vector is zero): the
+// rotations come from the half angles as products of unit complex numbers.
 SvdFrame svd_frame(double a, double b, double c, double d) {
   const double E = 0.5 * (a + d), F = 0.5 * (a - d), G = 0.5 * (c + b), H = 0.5 * (c - b);
-  const double Q = std::hypot(E, H), R = std::hypot(F, G);
-  const double a1 = std::atan2(G, F), a2 = std::atan2(H, E);
-  const double phi = 0.5 * (a2 + a1), theta = 0.5 * (a2 - a1);
-  return {Q + R, Q - R, std::cos(phi), std::sin(phi), std::cos(theta), std::sin(theta)};
+  const double Q = length(E, H), R = length(F, G);
+  const std::array<double, 2> h1 = R > 0 ? half_angle(F, G, R) : std::array<double, 2>{1, 0};
+  const std::array<double, 2> h2 = Q > 0 ? half_angle(E, H, Q) : std::array<double, 2>{1, 0};
+  return {Q + R, Q - R, h2[0] * h1[0] - h2[1] * h1[1], h2[1] * h1[0] + h2[0] * h1[1],
+          h2[0] * h1[0] + h2[1] * h1[1], h2[1] * h1[0] - h2[0] * h1[1]};
 }
 
 // The projected Hessian of an isotropic energy of J from its eigensystem (Smith, de Goes & Kim 2019): the
@@ -164,20 +186,20 @@ std::array<double, 16> assemble_modes(const SvdFrame& m, double twist, double fl
                                  p11 * m.cw - p10 * m.sw};
   };
   std::array<double, 16> out{};
-  auto add = [&](double lambda, const std::array<double, 4>& q) {
+  auto add = [&](double lambda, const std::array<double, 4>& q) {  // the upper triangle; mirrored at the end
     if (!(lambda > 0)) return;
     for (int i = 0; i < 4; ++i)
-      for (int j = 0; j < 4; ++j) out[4 * i + j] += lambda * q[i] * q[j];
+      for (int j = i; j < 4; ++j) out[4 * i + j] += lambda * q[i] * q[j];
   };
   const double r = std::sqrt(0.5);
   add(twist, mode(0, -r, r, 0));
   add(flip, mode(0, r, r, 0));
-  const double mean = 0.5 * (f11 + f22), radius = std::hypot(0.5 * (f11 - f22), f12);
+  const double mean = 0.5 * (f11 + f22), radius = length(0.5 * (f11 - f22), f12);
   const double l1 = mean + radius, l2 = mean - radius;
   // The eigenvector of l1: (f12, l1 - f11) or (l1 - f22, f12), whichever is the better conditioned.
   double ex = f12, ey = l1 - f11;
-  if (std::hypot(l1 - f22, f12) > std::hypot(ex, ey)) ex = l1 - f22, ey = f12;
-  const double n = std::hypot(ex, ey);
+  if (length(l1 - f22, f12) > length(ex, ey)) ex = l1 - f22, ey = f12;
+  const double n = length(ex, ey);
   if (n > 0) {
     ex /= n, ey /= n;
   } else {
@@ -185,6 +207,8 @@ std::array<double, 16> assemble_modes(const SvdFrame& m, double twist, double fl
   }
   add(l1, mode(ex, 0, 0, ey));
   add(l2, mode(-ey, 0, 0, ex));
+  for (int i = 1; i < 4; ++i)
+    for (int j = 0; j < i; ++j) out[4 * i + j] = out[4 * j + i];
   return out;
 }
 
@@ -469,24 +493,26 @@ struct UvDescent::Impl {
         for (std::size_t i = 0; i < 4; ++i)
           for (std::size_t j = 0; j < 4; ++j) hj[4 * i + j] = c1 * hj[4 * i + j] + c2 * gf[i] * gf[j];
       }
-      // dJ / d(u0, v0, u1, v1, u2, v2): J's row 0 from the u's, row 1 from the v's, columns through B.
+      // dJ / d(u0, v0, u1, v1, u2, v2) = M: J's row 0 (entries 0, 1 of hj's order) from the u's, row 1
+      // (entries 2, 3) from the v's, columns through B. Unknown a = 2 c + r (corner c, r = 0: u, 1: v) has the
+      // two nonzeros gk[c] in rows 2 r, 2 r + 1 of M; so each entry of M^T hj M is a sum of four products.
       const CornerGradients gk = corner_gradients(B);
-      double M[4][6] = {};
-      for (int c = 0; c < 3; ++c) {
-        M[0][2 * c] = gk[c][0], M[1][2 * c] = gk[c][1];
-        M[2][2 * c + 1] = gk[c][0], M[3][2 * c + 1] = gk[c][1];
-      }
-      double HM[4][6];
+      double HM[4][6];  // hj M
       for (int i = 0; i < 4; ++i)
-        for (int j = 0; j < 6; ++j)
-          HM[i][j] = hj[4 * i] * M[0][j] + hj[4 * i + 1] * M[1][j] + hj[4 * i + 2] * M[2][j] + hj[4 * i + 3] * M[3][j];
+        for (int c = 0; c < 3; ++c) {
+          HM[i][2 * c] = hj[4 * i] * gk[c][0] + hj[4 * i + 1] * gk[c][1];
+          HM[i][2 * c + 1] = hj[4 * i + 2] * gk[c][0] + hj[4 * i + 3] * gk[c][1];
+        }
       int t = 0;
-      for (int a = 0; a < 6; ++a)
+      for (int a = 0; a < 6; ++a) {
+        const int ra = 2 * (a % 2);
+        const double g0 = gk[a / 2][0], g1 = gk[a / 2][1];
         for (int b = 0; b <= a; ++b, ++t) {
           const int slot = hessian_slot[21 * k + static_cast<std::size_t>(t)];
           if (slot < 0) continue;
-          values[slot] += weight[f] * (M[0][a] * HM[0][b] + M[1][a] * HM[1][b] + M[2][a] * HM[2][b] + M[3][a] * HM[3][b]);
+          values[slot] += weight[f] * (g0 * HM[ra][b] + g1 * HM[ra + 1][b]);
         }
+      }
     }
     double trace = 0;
     for (int d : hessian_diagonal) trace += values[d];
