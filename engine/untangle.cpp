@@ -199,7 +199,6 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
     // Dirichlet energy, and throw that start away (on a 1.5-turn strip: 23 flips became 208). eps is capped
     // at 0.1 (det J is about 1 for an area-preserving map, the rest shapes being scaled to the uv area).
     s.epsilon = dmin > 0 ? 1e-10 : std::min(std::sqrt(1e-8 + 0.04 * dmin * dmin), kMaxStartEpsilon);
-    double e_prev = descent.energy(x, s);
     int best = static_cast<int>(faces.size()) + 1, since_best = 0;
     for (int used = 0, rounds = 0; rounds < (newton ? kNewtonRounds : kRounds) && used < budget;) {
       check_cancel(cancel);
@@ -217,11 +216,10 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
       // Newton's rounds are short: a run whose fold count has not reached a new low in kNewtonPatience rounds
       // has settled (on maze / spiral_arm, about 1,900 folds from round 40 on), and refinement takes over.
       if (newton && (left < best ? (best = left, since_best = 0, false) : ++since_best >= kNewtonPatience)) break;
-      const double e = descent.energy(x, s);
-      const double sigma = std::max(1 - e / e_prev, 0.1);
+      // The energy's progress over this round at this eps (minimize reports both ends: no extra pass).
+      const double sigma = std::max(1 - step.energy_after / step.energy_before, 0.1);
       const double mu = (1 - sigma) * detail::regularized_det(dmin, s.epsilon);
       s.epsilon = dmin < mu ? 2 * std::sqrt(mu * (mu - dmin)) : 1e-10;
-      e_prev = descent.energy(x, s);
     }
     return count_non_positive(x, faces);
   };

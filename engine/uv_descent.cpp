@@ -549,6 +549,21 @@ struct UvDescent::Impl {
   }
 
   // Sum of weighted energies over the active faces (the others are constant), with the gradient.
+  // The energy of the faces without a free corner (weighted sum, not a mean; inf when one is infinite).
+  double inactive_energy(const std::vector<Point2>& uv, const DescentSettings& s) const {
+    double e = 0;
+    for (std::size_t k = 0, f = 0; f < faces.size(); ++f) {
+      if (k < active.size() && active[k] == static_cast<int>(f)) {
+        ++k;
+        continue;
+      }
+      const double ef = jacobian_energy(mul(edges(uv, static_cast<int>(f)), rest_inverse[f]), s, base_of(s, f), nullptr);
+      if (!std::isfinite(ef)) return kInf;
+      e += weight[f] * ef;
+    }
+    return e;
+  }
+
   double evaluate(const std::vector<Point2>& uv, const DescentSettings& s, Vec2s* grad) const {
     if (grad) grad->setZero(static_cast<Eigen::Index>(free_vertex.size()), 2);
     double e = 0;
@@ -658,8 +673,17 @@ double UvDescent::min_det(const std::vector<Point2>& uv) const {
 DescentOutcome UvDescent::minimize(std::vector<Point2>& uv, const DescentSettings& s) {
   Impl& m = *impl_;
   DescentOutcome out;
-  out.energy_before = out.energy_after = energy(uv, s);
-  if (m.free_vertex.empty() || !std::isfinite(out.energy_before) || s.max_iterations <= 0) return out;
+  if (m.free_vertex.empty() || s.max_iterations <= 0) {
+    out.energy_before = out.energy_after = energy(uv, s);
+    return out;
+  }
+  // The faces without a free corner add a constant: summed once, so that the energy at both ends comes from
+  // the descent's own passes over the active faces.
+  const double fixed = m.inactive_energy(uv, s);
+  auto mean_energy = [&](double active_sum) {
+    const double sum = std::isfinite(active_sum) && std::isfinite(fixed) ? active_sum + fixed : kInf;
+    return m.total_weight > 0 ? sum / m.total_weight : 0;
+  };
   const bool flip_free = s.flip_free && s.energy != UvEnergy::untangle;
   bool newton = s.newton && s.energy != UvEnergy::symmetric_dirichlet;
   const int n = static_cast<int>(m.free_vertex.size());
@@ -674,6 +698,8 @@ DescentOutcome UvDescent::minimize(std::vector<Point2>& uv, const DescentSetting
   double gamma = 0.5;  // H0 = gamma L^-1; 0.5: mips and the untangle energy are about 2 |J|^2 near J = I
   Vec2s g(n, 2), g_new(n, 2), p(n, 2);
   double e = m.evaluate(uv, s, &g);
+  out.energy_before = out.energy_after = mean_energy(e);
+  if (!std::isfinite(out.energy_before)) return out;
   std::vector<Point2> trial;
   constexpr double kArmijo = 1e-4;
   int small_steps = 0;
@@ -758,7 +784,7 @@ DescentOutcome UvDescent::minimize(std::vector<Point2>& uv, const DescentSetting
       break;
     }
   }
-  out.energy_after = energy(uv, s);
+  out.energy_after = mean_energy(e);
   return out;
 }
 
