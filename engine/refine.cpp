@@ -422,6 +422,8 @@ private:
   int simplify() {
     const int ne = static_cast<int>(points_.size());
     std::vector<char> look(ne, 1), next(ne, 0);
+    face_version_.assign(faces_.size(), 0);
+    failed_runs_.assign(points_.size(), {});
     int rounds = 0;
     for (bool changed = true; changed;) {
       changed = false;
@@ -433,7 +435,12 @@ private:
         std::vector<int> kept;
         for (int i = 0; i < static_cast<int>(points_[e].size()); ++i)
           if (!points_[e][i].removed) kept.push_back(i);
-        if (kept.empty() || !remove_runs(e, kept, 0, static_cast<int>(kept.size()))) continue;
+        if (kept.empty()) continue;
+        std::vector<FailedRun>& failed = failed_runs_[e];  // drop what its faces' changes made stale
+        failed.erase(std::remove_if(failed.begin(), failed.end(),
+                                    [&](const FailedRun& r) { return face_version_[r.face] != r.version; }),
+                     failed.end());
+        if (!remove_runs(e, kept, 0, static_cast<int>(kept.size()))) continue;
         changed = true;
         for (int f : edge_faces_[e])
           for (int k = 0; k < 3; ++k) next[face_edges_[f][k]] = 1;
@@ -447,6 +454,8 @@ private:
   bool remove_runs(int e, const std::vector<int>& kept, int lo, int hi) {
     if (run_removable(e, kept, lo, hi)) {
       for (int k = lo; k < hi; ++k) points_[e][kept[k]].removed = true;
+      for (int f : edge_faces_[e]) ++face_version_[f];
+      failed_runs_[e].clear();
       return true;
     }
     if (hi - lo == 1) return false;
@@ -465,8 +474,20 @@ private:
     const PolyVertex z = run_neighbour(e, kept, hi, edge_vertices_[e][1]);
     const PolyVertex first = run_neighbour(e, kept, lo, -1), last = run_neighbour(e, kept, hi - 1, -1);
     if (!wedge_kept(before1, before2, y, first, z) || !wedge_kept(before1, before2, z, last, y)) return false;
+    // A face's polygon is a function of the removed flags on its three edges: when the run's removal left a
+    // face not usable and that face has not changed since (its version), the same removal fails again.
+    std::vector<FailedRun>& failed = failed_runs_[e];
+    const int first_point = kept[lo], last_point = kept[hi - 1];
+    for (const FailedRun& r : failed)
+      if (r.first == first_point && r.last == last_point && face_version_[r.face] == r.version) return false;
     for (int k = lo; k < hi; ++k) points_[e][kept[k]].removed = true;
-    const bool ok = same_turning(before1, f1) && same_turning(before2, f2) && usable(f1) && usable(f2);
+    bool ok = same_turning(before1, f1) && same_turning(before2, f2);
+    // The face that refused this edge's last run first: a run's halves mostly fail where the run did.
+    const bool second_first = !failed.empty() && failed.back().face == f2;
+    for (int f : {second_first ? f2 : f1, second_first ? f1 : f2}) {
+      if (!ok) break;
+      if (!(ok = usable(f))) failed.push_back({first_point, last_point, f, face_version_[f]});
+    }
     for (int k = lo; k < hi; ++k) points_[e][kept[k]].removed = false;
     return ok;
   }
@@ -690,6 +711,14 @@ private:
   std::vector<char> as_is_;
   mutable std::vector<detail::FanCorner> fan_scratch_;  // winding()'s one-ring
   std::vector<int> failed_faces_;
+  // The simplification's memo of refused runs: per edge, runs (first and last point) whose removal left a
+  // face not usable, with that face's version then; a face's version counts the removals on its edges.
+  struct FailedRun {
+    int first, last, face;
+    unsigned version;
+  };
+  std::vector<std::vector<FailedRun>> failed_runs_;
+  std::vector<unsigned> face_version_;
   std::vector<int> subdivisions_;  // per face: how often the fallback halved its edges
   static constexpr int kMaxSubdivisions = 6;
   std::vector<long long> point_base_;
