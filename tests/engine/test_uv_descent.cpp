@@ -318,6 +318,45 @@ TEST(PoweredMips, IsTheAreaWeightedMeanOfThePowerAndItsDescentLowersTheLargestK)
   ASSERT_GE(cases, 4);
 }
 
+TEST(UvDescentOutcome, ReportsTheMeanEnergyOfTheMapBeforeAndAfterFacesWithoutAFreeCornerIncluded) {
+  // minimize reports the energy at both ends from its own passes over the faces with a free corner plus the
+  // constant of the others; here it is recomputed from this file's own K over every face (mips = K + 1/K,
+  // 3D-area-weighted), with every fourth interior vertex pinned too so that many faces have no free corner.
+  int fixed_faces = 0;
+  const int cases = for_unfolded_grids([&](const Start& s, const std::string& where, unsigned) {
+    std::vector<char> pinned = s.pinned;
+    for (std::size_t v = 0; v < pinned.size(); v += 4) pinned[v] = 1;
+    auto mean_mips = [&](const std::vector<Point2>& uv) {
+      double sum = 0, area = 0;
+      for (const Triangle& t : s.mesh.faces) {
+        const Point3 &a = s.mesh.vertices[t[0]], &b = s.mesh.vertices[t[1]], &c = s.mesh.vertices[t[2]];
+        const double k = triangle_k(a, b, c, uv[t[0]], uv[t[1]], uv[t[2]]), w = triangle_area(a, b, c);
+        sum += w * (k + 1 / k);
+        area += w;
+      }
+      return sum / area;
+    };
+    for (const Triangle& t : s.mesh.faces) fixed_faces += pinned[t[0]] && pinned[t[1]] && pinned[t[2]];
+    for (bool newton : {false, true}) {
+      detail::UvDescent descent(s.mesh.vertices, s.mesh.faces, pinned, 1.0);
+      detail::DescentSettings settings;
+      settings.energy = detail::UvEnergy::mips;
+      settings.newton = newton;
+      settings.max_iterations = 20;
+      std::vector<Point2> uv = s.uv;
+      const double before = mean_mips(uv);
+      const detail::DescentOutcome out = descent.minimize(uv, settings);
+      const std::string how = where + (newton ? " (Newton)" : " (L-BFGS)");
+      ASSERT_GT(out.iterations, 0) << how;
+      EXPECT_NEAR(out.energy_before, before, 1e-9 * before) << how;
+      EXPECT_NEAR(out.energy_after, mean_mips(uv), 1e-9 * before) << how;
+      EXPECT_LT(out.energy_after, out.energy_before) << how;
+    }
+  });
+  ASSERT_GE(cases, 4);
+  EXPECT_GT(fixed_faces, 20);  // the constant part was exercised
+}
+
 TEST(PoweredMips, WithPerFaceBasesIsTheWeightedPNormAndItsDescentKeepsItsPromises) {
   // DescentSettings::face_base: face f's term is (((K + 1/K) / 2) / base_f)^p (method extremal's interior
   // polish). Checked with this file's own K over random per-face bases; with every base equal it is the single
