@@ -475,14 +475,17 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
         if (local) return std::move(*local);
       }
       // The whole mesh then. Its points are where the source edges cross the target mesh's edges (paper 4), and
-      // any triangulation of P serves the guarantee: one a tenth as dense crosses fewer (maze onto exp_strip
-      // 98,281 -> 68,883 points, bent_strip 77,190 -> 56,051, spiral_arm 62,818 -> 53,306), and the
-      // simplification, the refinement's cost there, has fewer to remove. The target mesh, h_t and the
-      // composition are made again for it (tens of ms beside tens of seconds); if that fails, the first ones.
-      if (!whole_mesh && out.untangling.attempted && !metric && options.method != MapMethod::extremal) {
+      // any triangulation of P serves the guarantee: one a tenth as dense crosses fewer (bench_quality: maze onto
+      // exp_strip 96,772 -> 67,702 points, bent_strip 75,281 -> 54,715, spiral_arm 62,818 -> 53,306, weak_fan
+      // 10,380 -> 2,055), and the simplification, the refinement's cost there, has fewer to remove. The target
+      // mesh, h_t and the composition are made again for it (tens of ms beside seconds); if that fails, the
+      // first ones. (A density so small that a tenth of it is 0 keeps the first ones too.)
+      const double coarse_density = kWholeMeshTargetDensity * options.target_density;
+      if (!whole_mesh && out.untangling.attempted && !metric && options.method != MapMethod::extremal &&
+          coarse_density > 0) {
         try {
           TargetMeshOptions mesher;
-          mesher.density = kWholeMeshTargetDensity * options.target_density;
+          mesher.density = coarse_density;
           mesher.source_triangles = static_cast<int>(input.mesh.faces.size());
           const TargetMesh coarse = build_target_mesh(work_polygon, out.classification.triangulation, mesher, cancel);
           const DiskMap coarse_disk = map_target_to_disk(coarse, work_polygon.vertices.size(), options.method, cancel);
