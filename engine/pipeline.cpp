@@ -393,17 +393,29 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
     }
   }
 
+  // Paper 4's target mesh M_t at a density, and its summary in the answer.
+  auto make_target_mesh = [&](double density) {
+    TargetMeshOptions mesher;
+    mesher.density = density;
+    mesher.source_triangles = static_cast<int>(input.mesh.faces.size());
+    return build_target_mesh(work_polygon, out.classification.triangulation, mesher, cancel);
+  };
+  auto summarize = [&](const TargetMesh& t) {
+    out.target_mesh = {static_cast<int>(t.vertices.size()), static_cast<int>(t.faces.size()), t.pieces, t.min_angle_deg};
+  };
+  // The composition f = h_t^-1 o h_s, with tangled vertices relocated (source_disk: h_s, moved in place).
+  auto compose_relocated = [&](std::vector<Point2>& source_disk, const TargetMesh& t, const DiskMap& target_disk) {
+    Composition c = compose(work_mesh, input.boundary.loop, source_disk, t, target_disk.uv, cancel);
+    out.relocation = relocate_tangled_vertices(work_mesh, input.boundary.loop, source_disk, c, t, cancel);
+    return c;
+  };
+
   // The paper's path. Its target mesh, both disk maps and the composition end with this block: the map is
   // built, and at 1M triangles they hold tens of MB beside the optimization's factorization, the run's peak.
   {
-    const TargetMesh target = run_stage(Stage::target_mesh, time.target_mesh, cancel, progress, [&] {
-      TargetMeshOptions mesher;
-      mesher.density = options.target_density;
-      mesher.source_triangles = static_cast<int>(input.mesh.faces.size());
-      return build_target_mesh(work_polygon, out.classification.triangulation, mesher, cancel);
-    });
-    out.target_mesh = {static_cast<int>(target.vertices.size()), static_cast<int>(target.faces.size()), target.pieces,
-                       target.min_angle_deg};
+    const TargetMesh target = run_stage(Stage::target_mesh, time.target_mesh, cancel, progress,
+                                        [&] { return make_target_mesh(options.target_density); });
+    summarize(target);
 
     struct DiskMaps { DiskMap source, target; };
     const DiskMaps disk = run_stage(Stage::intermediate_maps, time.intermediate_maps, cancel, progress, [&] {
@@ -451,11 +463,8 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
 
     // Relocation moves tangled vertices' disk points (h_s becomes h_s'), so refine works on this copy.
     std::vector<Point2> source_disk = disk.source.uv;
-    const Composition composition = run_stage(Stage::compose, time.compose, cancel, progress, [&] {
-      Composition c = compose(work_mesh, input.boundary.loop, source_disk, target, disk.target.uv, cancel);
-      out.relocation = relocate_tangled_vertices(work_mesh, input.boundary.loop, source_disk, c, target, cancel);
-      return c;
-    });
+    const Composition composition = run_stage(Stage::compose, time.compose, cancel, progress,
+                                              [&] { return compose_relocated(source_disk, target, disk.target); });
 
     // Untangle the unrefined map when it folds; refinement (paper 4) only when that fails (engine/untangle.h).
     if (options.refine && options.untangle) {
@@ -483,22 +492,18 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
       const double coarse_density = kWholeMeshTargetDensity * options.target_density;
       if (!whole_mesh && out.untangling.attempted && !metric && options.method != MapMethod::extremal &&
           coarse_density > 0) {
+        const Relocation first_relocation = out.relocation;
         try {
-          TargetMeshOptions mesher;
-          mesher.density = coarse_density;
-          mesher.source_triangles = static_cast<int>(input.mesh.faces.size());
-          const TargetMesh coarse = build_target_mesh(work_polygon, out.classification.triangulation, mesher, cancel);
+          const TargetMesh coarse = make_target_mesh(coarse_density);
           const DiskMap coarse_disk = map_target_to_disk(coarse, work_polygon.vertices.size(), options.method, cancel);
           std::vector<Point2> moved = disk.source.uv;
-          Composition c = compose(work_mesh, input.boundary.loop, moved, coarse, coarse_disk.uv, cancel);
-          Relocation relocation = relocate_tangled_vertices(work_mesh, input.boundary.loop, moved, c, coarse, cancel);
+          const Composition c = compose_relocated(moved, coarse, coarse_disk);
           RefinedMap m = refine(work_mesh, input.boundary.loop, out.classification.rotation_indices, moved, coarse,
                                 coarse_disk.uv, c, options.refine, cancel);
-          out.target_mesh = {static_cast<int>(coarse.vertices.size()), static_cast<int>(coarse.faces.size()),
-                             coarse.pieces, coarse.min_angle_deg};
-          out.relocation = std::move(relocation);
+          summarize(coarse);
           return m;
         } catch (const InternalError&) {
+          out.relocation = first_relocation;
         }
       }
       return refine(work_mesh, input.boundary.loop, out.classification.rotation_indices, source_disk, target,

@@ -482,7 +482,7 @@ private:
       if (r.first == first_point && r.last == last_point && face_version_[r.face] == r.version) return false;
     for (int k = lo; k < hi; ++k) points_[e][kept[k]].removed = true;
     bool ok = same_turning(before1, f1) && same_turning(before2, f2);
-    // The face that refused this edge's last run first: a run's halves mostly fail where the run did.
+    // Test first the face that refused this edge's latest run: a run's halves mostly fail where the run did.
     const bool second_first = !failed.empty() && failed.back().face == f2;
     for (int f : {second_first ? f2 : f1, second_first ? f1 : f2}) {
       if (!ok) break;

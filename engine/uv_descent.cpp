@@ -548,15 +548,12 @@ struct UvDescent::Impl {
     return {u1.x - u0.x, u2.x - u0.x, u1.y - u0.y, u2.y - u0.y};
   }
 
-  // Sum of weighted energies over the active faces (the others are constant), with the gradient.
-  // The energy of the faces without a free corner (weighted sum, not a mean; inf when one is infinite).
-  double inactive_energy(const std::vector<Point2>& uv, const DescentSettings& s) const {
+  // Weighted energy sum over the faces f (in increasing order) for which include(f); inf when one is infinite.
+  template <class Include>
+  double energy_sum(const std::vector<Point2>& uv, const DescentSettings& s, Include&& include) const {
     double e = 0;
-    for (std::size_t k = 0, f = 0; f < faces.size(); ++f) {
-      if (k < active.size() && active[k] == static_cast<int>(f)) {
-        ++k;
-        continue;
-      }
+    for (std::size_t f = 0; f < faces.size(); ++f) {
+      if (!include(f)) continue;
       const double ef = jacobian_energy(mul(edges(uv, static_cast<int>(f)), rest_inverse[f]), s, base_of(s, f), nullptr);
       if (!std::isfinite(ef)) return kInf;
       e += weight[f] * ef;
@@ -564,6 +561,16 @@ struct UvDescent::Impl {
     return e;
   }
 
+  // The faces without a free corner: a constant of the descent (`active` is ascending).
+  double inactive_energy(const std::vector<Point2>& uv, const DescentSettings& s) const {
+    std::size_t k = 0;
+    return energy_sum(uv, s, [&](std::size_t f) {
+      if (k < active.size() && active[k] == static_cast<int>(f)) return ++k, false;
+      return true;
+    });
+  }
+
+  // Sum of weighted energies over the active faces (the others are constant), with the gradient.
   double evaluate(const std::vector<Point2>& uv, const DescentSettings& s, Vec2s* grad) const {
     if (grad) grad->setZero(static_cast<Eigen::Index>(free_vertex.size()), 2);
     double e = 0;
@@ -653,13 +660,7 @@ void UvDescent::harmonic(std::vector<Point2>& uv) {
 int UvDescent::free_vertices() const { return static_cast<int>(impl_->free_vertex.size()); }
 
 double UvDescent::energy(const std::vector<Point2>& uv, const DescentSettings& settings) const {
-  double e = 0;
-  for (std::size_t f = 0; f < impl_->faces.size(); ++f) {
-    const double ef = jacobian_energy(mul(impl_->edges(uv, static_cast<int>(f)), impl_->rest_inverse[f]), settings,
-                                      base_of(settings, f), nullptr);
-    if (!std::isfinite(ef)) return kInf;
-    e += impl_->weight[f] * ef;
-  }
+  const double e = impl_->energy_sum(uv, settings, [](std::size_t) { return true; });
   return impl_->total_weight > 0 ? e / impl_->total_weight : 0;
 }
 
