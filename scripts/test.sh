@@ -104,7 +104,16 @@ if [[ "${CI:-}" == true || "${LIPMAP_SANITIZERS:-}" == 1 ]]; then
     step "sanitizers: GoogleTest"
     timeout --kill-after=30 "$asan_timeout" "$asan_dir/tests/lipmap_tests" --gtest_brief=1 \
       --gtest_filter='-MapPipelineTargets*:GltfPipeline*:*Shared*:Readme*:MetricReproduction*:MetricRepair*' 2>&1 | tee "$logs/asan.log"
-    [[ ${PIPESTATUS[0]} -eq 0 ]] || failed_steps+=("sanitizers gtest")
+    asan_status=${PIPESTATUS[0]}
+    if ((asan_status != 0)); then
+      failed_steps+=("sanitizers gtest")
+      # A sanitizer's report at exit (a leak) comes after GoogleTest's summary: say what ended the run, and
+      # again at the end, where a shortened log still shows it.
+      {
+        echo "sanitizers gtest: exit status $asan_status"
+        grep -E '^\[  (PASSED|FAILED|SKIPPED) *\]|ERROR: (Address|Leak)Sanitizer|runtime error:|^SUMMARY: ' "$logs/asan.log" | head -n 20
+      } | tee "$logs/asan-why.log"
+    fi
     p=$(sed -nE 's/^\[  PASSED  \] ([0-9]+) tests?\.$/\1/p' "$logs/asan.log" | tail -n 1)
     f=$(sed -nE 's/^\[  FAILED  \] ([0-9]+) tests?, listed below:$/\1/p' "$logs/asan.log" | tail -n 1)
     passed=$((passed + ${p:-0})) failed=$((failed + ${f:-0}))
@@ -131,6 +140,7 @@ fi
 
 step end
 if ((${#failed_steps[@]} > 0)); then
+  [[ -s "$logs/asan-why.log" ]] && cat "$logs/asan-why.log"
   echo "== FAILED: ${failed_steps[*]}"
   ((failed > 0)) || failed=1  # a step that failed without a counted test failure (a crash, a missing binary)
 fi
