@@ -170,6 +170,12 @@ Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, 
   // ends above the start's; else the plain descent runs on the map as it came.
   // Each attempt fills its own report; `before` (with its per-face K) is moved into the one returned.
   const int free_rings = step_budget(options, map.faces.size()) > kMinOptimizeSteps ? -1 : kFreeRings;
+  // Above kNewtonMaxFaces (no Newton polish: the stage's time is its L-BFGS steps) the polish gets what the free
+  // descents left of one step budget, so a refined map costs one budget, as an unrefined one does, unless a
+  // free round removed points: the next round has a budget of its own (optimize.h).
+  const int steps = map.faces.size() > kNewtonMaxFaces && options.time_budget_ms <= 0
+                        ? std::min(options.max_iterations, step_budget(options, map.faces.size()))
+                        : options.max_iterations;
   auto run = [&](RefinedMap& m, bool free_first) {
     Optimization o;
     o.energy = out.energy;
@@ -187,7 +193,7 @@ Optimization optimize_map(const DiskMesh& source, const std::vector<int>& loop, 
     }
     const std::vector<Point3>& shape_now = rest ? *rest : m.vertices;  // simplify_again replaces m's vertices
     const Descent second = descend(shape_now, m, pinned_vertices(source, loop, m, true), uv_area, options, s,
-                                   options.max_iterations - first.outcome.iterations);
+                                   std::max(0, steps - first.outcome.iterations));
     o.free_vertices = std::max(first.free_vertices, second.free_vertices);
     o.ran = first.ran || second.ran;
     o.iterations = first.outcome.iterations + second.outcome.iterations;

@@ -139,6 +139,29 @@ TEST(OptimizeStage, FreeDescentsMoveTheWholeInteriorBelowTheStepFloorAndOnlyNear
   }
 }
 
+// Above kNewtonMaxFaces the stage's work bound (steps x triangles, optimize.h) holds on a refined map too: one
+// inserted point must not buy a second descent of the whole map (the free descent, then the polish: twice the
+// time of the same map unrefined, bench_pipeline mountain / exp_strip). Below it each descent has its own budget.
+TEST(OptimizeStage, AboveTheNewtonBoundARefinedMapTakesOneStepBudgetInAll) {
+  for (int n : {120, 130}) {
+    SplitGrid g = grid_with_a_split_diagonal(n);
+    const std::vector<int> rotation(g.mesh.boundary_loop.size(), 0);
+    const ParametrizeOptions o;
+    const bool large = g.map.faces.size() > kNewtonMaxFaces;
+    EXPECT_EQ(large, n == 130);
+    const int budget = step_budget(o, g.map.faces.size());
+    ASSERT_GT(budget, kMinOptimizeSteps) << n;  // above the floor: the free descent moves the whole interior
+    const Optimization result = optimize_map(g.mesh, g.mesh.boundary_loop, 1.0, g.map, o, nullptr, nullptr, &rotation);
+    ASSERT_TRUE(result.ran) << n << ": " << result.outcome;
+    EXPECT_EQ(count_folded_by_checker(g.map.uv, g.map.faces), 0) << n;
+    EXPECT_LT(result.energy_after, result.energy_before) << n;
+    if (large) EXPECT_LE(result.iterations, budget) << n << ": " << result.outcome;
+    else EXPECT_GT(result.iterations, budget) << n << ": the free descent and the polish each had a budget";
+    std::printf("[ budget ] %zu triangles: %d steps, budget %d, %d point(s) removed (%s)\n", g.map.faces.size(),
+                result.iterations, budget, result.points_removed, result.outcome.c_str());
+  }
+}
+
 TEST(OptimizeStage, NotRunOnAMapWithFlips) {
   const DiskMesh mesh = validate_mesh(bumpy_grid(4));
   RefinedMap map;
