@@ -4,7 +4,7 @@
 // ours, the composed map's flips, and the time per stage.
 //
 //   bench_quality [--seeds N] [--mesh NAME]... [--budget-s S] [--baseline] [--optimize NAME]
-//                 [--max-iterations N] [--all-kinds] [--kind NAME]...
+//                 [--max-iterations N] [--all-kinds] [--kind NAME]... [--prescribed]
 //
 // Seeds: seed 0 is the generator's target as it is; seed s > 0 applies an orientation-preserving linear map
 // A_s (a rotation, an anisotropic stretch of 1.15 .. 1.6, another rotation; std::mt19937 seeded with s) to the
@@ -21,6 +21,9 @@
 // weak_fan: weakly self-overlapping): their rows show "-" and stay out of the comparisons, but count for the
 // time and inserted-count figures (the maze onto a simple spiral is the classic runaway case).
 // --kind NAME (repeatable) keeps only those kinds (any of the above).
+// --prescribed gives weak_fan's rotation indices as the generator made them (R = 1 at the hub) in the request,
+// as a client who knows them would; without it the classification finds indices of its own (any that make the
+// polygon weakly self-overlapping), which can be a different map problem.
 // Mean K: area-weighted mean of K = sigma1 / sigma2 (engine/quality.h), the same measure for both.
 #include <algorithm>
 #include <chrono>
@@ -135,6 +138,7 @@ int main(int argc, char** argv) {
   double budget_s = 30;
   bool baseline = false;
   bool all_kinds = false;
+  bool prescribed = false;
   std::vector<std::string> only, only_kinds;
   lipmap::ParametrizeOptions options;
   std::string data = default_data_dir();
@@ -145,6 +149,7 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--budget-s") && i + 1 < argc) budget_s = std::max(1.0, std::atof(argv[++i]));
     else if (!std::strcmp(argv[i], "--baseline")) baseline = true;
     else if (!std::strcmp(argv[i], "--all-kinds")) all_kinds = true;
+    else if (!std::strcmp(argv[i], "--prescribed")) prescribed = true;
     else if (!std::strcmp(argv[i], "--kind") && i + 1 < argc) only_kinds.push_back(argv[++i]);
     else if (!std::strcmp(argv[i], "--optimize") && i + 1 < argc) {
       if (!lipmap::parse_optimize_energy(argv[++i], options.optimize)) {
@@ -154,7 +159,7 @@ int main(int argc, char** argv) {
     } else if (!std::strcmp(argv[i], "--max-iterations") && i + 1 < argc) options.max_iterations = std::atoi(argv[++i]);
     else {
       std::printf("usage: %s [--seeds N] [--mesh NAME]... [--budget-s S] [--baseline] [--optimize NAME] "
-                  "[--max-iterations N] [--all-kinds] [--kind NAME]...\n", argv[0]);
+                  "[--max-iterations N] [--all-kinds] [--kind NAME]... [--prescribed]\n", argv[0]);
       return 0;
     }
   }
@@ -177,10 +182,11 @@ int main(int argc, char** argv) {
     options.untangle = false;
     options.optimize = lipmap::OptimizeEnergy::none;
   }
-  std::printf("bench_quality: %s; %d seed%s; budget %.0f s per row; times in ms\n",
+  std::printf("bench_quality: %s%s; %d seed%s; budget %.0f s per row; times in ms\n",
               baseline ? "baseline (untangle off, optimize none)"
                        : (std::string("untangle on, optimize ") + lipmap::to_string(options.optimize) +
                           ", max_iterations " + std::to_string(options.max_iterations)).c_str(),
+              prescribed ? "; weak_fan's rotation indices prescribed" : "",
               seeds, seeds == 1 ? "" : "s", budget_s);
   std::printf("\n%-26s %-10s %4s %4s %6s %6s %7s %9s %9s %9s %9s %6s %7s %7s %5s %9s %9s %9s %9s %9s\n", "model", "kind",
               "seed", "cert", "c.ins", "ins", "chordLB", "c.meanK", "meanK", "maxK", "pinnedK", "ratio", "flips", "left", "iter", "untangle",
@@ -214,6 +220,10 @@ int main(int argc, char** argv) {
         const Linear A = seeded_map(seed);
         lipmap::RawBoundary b;
         for (const Point2& p : target->positions) b.positions.push_back(A(p));
+        if (prescribed && target->rotation_indices) {
+          b.vertices.emplace(mesh.boundary_loop.begin(), mesh.boundary_loop.end());
+          b.rotation_indices.emplace(target->rotation_indices->begin(), target->rotation_indices->end());
+        }
         if (target->certificate_on_source) {
           std::vector<Point2> cert;
           for (const Point2& p : target->certificate_uv) cert.push_back(A(p));
