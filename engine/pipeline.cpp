@@ -14,6 +14,7 @@
 #include "engine/extremal_relax.h"
 #include "engine/flip_check.h"
 #include "engine/fold_region.h"
+#include "engine/rotation_placement.h"
 #include "engine/reference_metric.h"
 #include "engine/slide_inserted.h"
 #include "engine/target_mesh.h"
@@ -413,12 +414,12 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
   // The paper's path. Its target mesh, both disk maps and the composition end with this block: the map is
   // built, and at 1M triangles they hold tens of MB beside the optimization's factorization, the run's peak.
   {
-    const TargetMesh target = run_stage(Stage::target_mesh, time.target_mesh, cancel, progress,
-                                        [&] { return make_target_mesh(options.target_density); });
+    TargetMesh target = run_stage(Stage::target_mesh, time.target_mesh, cancel, progress,
+                                  [&] { return make_target_mesh(options.target_density); });
     summarize(target);
 
     struct DiskMaps { DiskMap source, target; };
-    const DiskMaps disk = run_stage(Stage::intermediate_maps, time.intermediate_maps, cancel, progress, [&] {
+    DiskMaps disk = run_stage(Stage::intermediate_maps, time.intermediate_maps, cancel, progress, [&] {
       DiskMaps maps;
       if (options.method == MapMethod::extremal) {
         // Paper 5.3: both onto a convex domain M_c, the target conformally, the source by a Teichmuller map.
@@ -463,8 +464,49 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
 
     // Relocation moves tangled vertices' disk points (h_s becomes h_s'), so refine works on this copy.
     std::vector<Point2> source_disk = disk.source.uv;
-    const Composition composition = run_stage(Stage::compose, time.compose, cancel, progress,
-                                              [&] { return compose_relocated(source_disk, target, disk.target); });
+    Composition composition = run_stage(Stage::compose, time.compose, cancel, progress,
+                                        [&] { return compose_relocated(source_disk, target, disk.target); });
+
+    // Where the extra turn goes, when the caller did not say (paper 3.1 leaves it open): the free search keeps
+    // the first triangulation its table finds, and its vertex with R = 1 often has 2 or 3 faces for an angle of
+    // about 3 pi (a boundary vertex with d faces spans less than d pi). Then the boundary vertices with the most
+    // room are tried as well, each exactly classified with that prescription, and the placement whose composed
+    // map folds least is kept: on the bench's weak_fan rows (one seed) the fewer folds went with the fewer
+    // inserted points in all 11 cases tried (engine/rotation_placement.h).
+    if (options.refine && options.untangle && !metric && options.method == MapMethod::harmonic &&
+        out.relocation.flipped_before > 0) {
+      const auto t0 = Clock::now();
+      for (int k : rotation_placement_candidates(work_mesh, input.boundary.loop, work_polygon, out.classification)) {
+        BoundaryPolygon prescribed = work_polygon;
+        prescribed.rotation_indices = std::vector<int>(work_polygon.vertices.size(), 0);
+        (*prescribed.rotation_indices)[static_cast<std::size_t>(k)] = 1;
+        Classification placed = classify(prescribed, cancel);
+        if (placed.verdict == Verdict::not_self_overlapping) continue;
+        placed.stats.free_rotation_search = true;
+        std::swap(out.classification, placed);
+        const Relocation kept_relocation = out.relocation;
+        try {
+          TargetMesh t = make_target_mesh(options.target_density);
+          DiskMap h_t = map_target_to_disk(t, work_polygon.vertices.size(), options.method, cancel);
+          std::vector<Point2> moved = disk.source.uv;
+          Composition c = compose_relocated(moved, t, h_t);
+          if (out.relocation.flipped_before < kept_relocation.flipped_before) {
+            // Composed again against the kept objects: a composition's walk refers to its target mesh.
+            target = std::move(t);
+            disk.target = std::move(h_t);
+            source_disk = disk.source.uv;
+            composition = compose_relocated(source_disk, target, disk.target);
+            summarize(target);
+            out.target_map_solution = disk.target.solution;
+            continue;
+          }
+        } catch (const InternalError&) {
+        }
+        std::swap(out.classification, placed);  // not better: the placement as it was
+        out.relocation = kept_relocation;
+      }
+      time.classify += std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    }
 
     // Untangle the unrefined map when it folds; refinement (paper 4) only when that fails (engine/untangle.h).
     if (options.refine && options.untangle) {
