@@ -14,8 +14,8 @@
 #include "engine/extremal_relax.h"
 #include "engine/flip_check.h"
 #include "engine/fold_region.h"
-#include "engine/rotation_placement.h"
 #include "engine/reference_metric.h"
+#include "engine/rotation_placement.h"
 #include "engine/slide_inserted.h"
 #include "engine/target_mesh.h"
 #include "engine/teichmuller.h"
@@ -489,7 +489,7 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
           TargetMesh t = make_target_mesh(options.target_density);
           DiskMap h_t = map_target_to_disk(t, work_polygon.vertices.size(), options.method, cancel);
           std::vector<Point2> moved = disk.source.uv;
-          Composition c = compose_relocated(moved, t, h_t);
+          compose_relocated(moved, t, h_t);  // its fold count goes to out.relocation
           if (out.relocation.flipped_before < kept_relocation.flipped_before) {
             // Composed again against the kept objects: a composition's walk refers to its target mesh.
             target = std::move(t);
