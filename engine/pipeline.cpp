@@ -4,6 +4,7 @@
 #include <chrono>
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <numeric>
 #include <optional>
 #include <string>
@@ -404,11 +405,31 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
   auto summarize = [&](const TargetMesh& t) {
     out.target_mesh = {static_cast<int>(t.vertices.size()), static_cast<int>(t.faces.size()), t.pieces, t.min_angle_deg};
   };
-  // The composition f = h_t^-1 o h_s, with tangled vertices relocated (source_disk: h_s, moved in place).
-  auto compose_relocated = [&](std::vector<Point2>& source_disk, const TargetMesh& t, const DiskMap& target_disk) {
-    Composition c = compose(work_mesh, input.boundary.loop, source_disk, t, target_disk.uv, cancel);
-    out.relocation = relocate_tangled_vertices(work_mesh, input.boundary.loop, source_disk, c, t, cancel);
-    return c;
+  // Paper 4's target side for h_s: M_t, h_t and the composition f = h_t^-1 o h_s with tangled vertices relocated
+  // (its source_disk is h_s with those moved; refine works on it). Held on the heap: the composition's walk refers
+  // to the mesh's topology, so a side is kept or dropped whole, never moved apart.
+  struct TargetSide {
+    TargetMesh mesh;
+    DiskMap disk;
+    std::vector<Point2> source_disk;
+    Composition composition;
+    Relocation relocation;
+  };
+  auto compose_side = [&](TargetMesh mesh, DiskMap h_t, const std::vector<Point2>& h_s) {
+    auto side = std::make_unique<TargetSide>();
+    side->mesh = std::move(mesh);
+    side->disk = std::move(h_t);
+    side->source_disk = h_s;
+    side->composition = compose(work_mesh, input.boundary.loop, side->source_disk, side->mesh, side->disk.uv, cancel);
+    side->relocation = relocate_tangled_vertices(work_mesh, input.boundary.loop, side->source_disk,
+                                                 side->composition, side->mesh, cancel);
+    return side;
+  };
+  // Another target side of the paper's path (harmonic or Tutte h_t), M_t at `density`.
+  auto side_at_density = [&](double density, const std::vector<Point2>& h_s) {
+    TargetMesh mesh = make_target_mesh(density);
+    DiskMap h_t = map_target_to_disk(mesh, work_polygon.vertices.size(), options.method, cancel);
+    return compose_side(std::move(mesh), std::move(h_t), h_s);
   };
 
   // The paper's path. Its target mesh, both disk maps and the composition end with this block: the map is
@@ -461,11 +482,12 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
     });
     out.source_map_solution = disk.source.solution;
     out.target_map_solution = disk.target.solution;
+    const std::vector<Point2>& h_s = disk.source.uv;
 
-    // Relocation moves tangled vertices' disk points (h_s becomes h_s'), so refine works on this copy.
-    std::vector<Point2> source_disk = disk.source.uv;
-    Composition composition = run_stage(Stage::compose, time.compose, cancel, progress,
-                                        [&] { return compose_relocated(source_disk, target, disk.target); });
+    std::unique_ptr<TargetSide> side = run_stage(Stage::compose, time.compose, cancel, progress, [&] {
+      return compose_side(std::move(target), std::move(disk.target), h_s);
+    });
+    out.relocation = side->relocation;
 
     // Where the extra turn goes, when the caller did not say (paper 3.1 leaves it open): the free search keeps
     // the first triangulation its table finds, and its vertex with R = 1 often has 2 or 3 faces for an angle of
@@ -483,27 +505,19 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
         Classification placed = classify(prescribed, cancel);
         if (placed.verdict == Verdict::not_self_overlapping) continue;
         placed.stats.free_rotation_search = true;
-        std::swap(out.classification, placed);
-        const Relocation kept_relocation = out.relocation;
+        std::swap(out.classification, placed);  // make_target_mesh triangulates by out.classification
         try {
-          TargetMesh t = make_target_mesh(options.target_density);
-          DiskMap h_t = map_target_to_disk(t, work_polygon.vertices.size(), options.method, cancel);
-          std::vector<Point2> moved = disk.source.uv;
-          compose_relocated(moved, t, h_t);  // its fold count goes to out.relocation
-          if (out.relocation.flipped_before < kept_relocation.flipped_before) {
-            // Composed again against the kept objects: a composition's walk refers to its target mesh.
-            target = std::move(t);
-            disk.target = std::move(h_t);
-            source_disk = disk.source.uv;
-            composition = compose_relocated(source_disk, target, disk.target);
-            summarize(target);
-            out.target_map_solution = disk.target.solution;
+          std::unique_ptr<TargetSide> candidate = side_at_density(options.target_density, h_s);
+          if (candidate->relocation.flipped_before < side->relocation.flipped_before) {
+            side = std::move(candidate);
+            out.relocation = side->relocation;
+            out.target_map_solution = side->disk.solution;
+            summarize(side->mesh);
             continue;
           }
         } catch (const InternalError&) {
         }
         std::swap(out.classification, placed);  // not better: the placement as it was
-        out.relocation = kept_relocation;
       }
       time.classify += std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
     }
@@ -512,7 +526,7 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
     if (options.refine && options.untangle) {
       out.untangling = run_stage(Stage::untangle, time.untangle, cancel, progress, [&] {
         return untangle(work_mesh, input.boundary.loop, work_polygon, out.classification.rotation_indices,
-                        composition.uv, cancel, metric ? &metric->rest : nullptr);
+                        side->composition.uv, cancel, metric ? &metric->rest : nullptr);
       });
     }
     out.map = run_stage(Stage::refine, time.refine, cancel, progress, [&] {
@@ -522,34 +536,31 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
       if (!whole_mesh && out.untangling.attempted && !metric) {
         std::optional<RefinedMap> local =
             refine_in_fold_regions(work_mesh, input.boundary.loop, work_polygon, out.classification.rotation_indices,
-                                   {&composition.uv, &out.untangling.uv}, options, cancel);
+                                   {&side->composition.uv, &out.untangling.uv}, options, cancel);
         if (local) return std::move(*local);
       }
       // The whole mesh then. Its points are where the source edges cross the target mesh's edges (paper 4), and
       // any triangulation of P serves the guarantee: one a tenth as dense crosses fewer (bench_quality: maze onto
       // exp_strip 96,772 -> 67,702 points, bent_strip 75,281 -> 54,715, spiral_arm 62,818 -> 53,306, weak_fan
-      // 10,380 -> 2,055), and the simplification, the refinement's cost there, has fewer to remove. The target
-      // mesh, h_t and the composition are made again for it (tens of ms beside seconds); if that fails, the
-      // first ones. (A density so small that a tenth of it is 0 keeps the first ones too.)
+      // 10,380 -> 2,055), and the simplification, the refinement's cost there, has fewer to remove. A target
+      // side is made again for it (tens of ms beside seconds); if that fails, the first one serves. (A density
+      // so small that a tenth of it is 0 keeps the first one too.)
       const double coarse_density = kWholeMeshTargetDensity * options.target_density;
       if (!whole_mesh && out.untangling.attempted && !metric && options.method != MapMethod::extremal &&
           coarse_density > 0) {
-        const Relocation first_relocation = out.relocation;
         try {
-          const TargetMesh coarse = make_target_mesh(coarse_density);
-          const DiskMap coarse_disk = map_target_to_disk(coarse, work_polygon.vertices.size(), options.method, cancel);
-          std::vector<Point2> moved = disk.source.uv;
-          const Composition c = compose_relocated(moved, coarse, coarse_disk);
-          RefinedMap m = refine(work_mesh, input.boundary.loop, out.classification.rotation_indices, moved, coarse,
-                                coarse_disk.uv, c, options.refine, cancel);
-          summarize(coarse);
+          const std::unique_ptr<TargetSide> coarse = side_at_density(coarse_density, h_s);
+          RefinedMap m = refine(work_mesh, input.boundary.loop, out.classification.rotation_indices,
+                                coarse->source_disk, coarse->mesh, coarse->disk.uv, coarse->composition,
+                                options.refine, cancel);
+          summarize(coarse->mesh);
+          out.relocation = coarse->relocation;
           return m;
         } catch (const InternalError&) {
-          out.relocation = first_relocation;
         }
       }
-      return refine(work_mesh, input.boundary.loop, out.classification.rotation_indices, source_disk, target,
-                    disk.target.uv, composition, options.refine, cancel);
+      return refine(work_mesh, input.boundary.loop, out.classification.rotation_indices, side->source_disk,
+                    side->mesh, side->disk.uv, side->composition, options.refine, cancel);
     });
   }
   // Reported as the paper's "flipped before refinement": the composed map's flips, before relocation.
