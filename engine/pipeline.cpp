@@ -318,6 +318,28 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
   out.classification = run_stage(Stage::classify, time.classify, cancel, progress,
                                  [&] { return classify(work_polygon, cancel); });
   if (out.classification.verdict == Verdict::not_self_overlapping) throw NotSelfOverlapping(out.classification);
+  // When nobody prescribed the rotation indices, the untangler may end with the extra turns elsewhere than the
+  // classification put them (any placement is an answer, paper 3.1). The classification is then made again with
+  // the untangled map's indices prescribed, so that the answer reports one consistent triangulation; such a map
+  // proves that one exists, and if classify disagrees the map is not taken (refinement follows as usual).
+  auto untangle_freely = [&] { return out.classification.stats.free_rotation_search; };
+  auto adopt_untangled_rotation = [&] {
+    Untangling& u = out.untangling;
+    if (!u.succeeded || u.rotation_indices == out.classification.rotation_indices) return;
+    const auto t0 = Clock::now();
+    BoundaryPolygon placed = work_polygon;
+    placed.rotation_indices = u.rotation_indices;
+    Classification c = classify(placed, cancel);
+    time.classify += std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+    if (c.verdict == Verdict::not_self_overlapping) {
+      u.succeeded = false;
+      u.outcome = "failed: every face positive with rotation indices that classify refuses (" + c.reason + ")";
+      return;
+    }
+    c.stats.free_rotation_search = true;
+    out.classification = std::move(c);
+    u.outcome += "; the extra turns at other boundary vertices than the classification's";
+  };
 
   // Paper 5.2: a reference map T's metric. A locally injective T (or T with its boundary moved onto the
   // polygon) is the answer itself: the paper's reproduction property (h = T), taken literally rather than
@@ -360,8 +382,10 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
     }
     if (options.refine && options.untangle) {
       out.untangling = run_stage(Stage::untangle, time.untangle, cancel, progress, [&] {
-        return untangle(work_mesh, input.boundary.loop, work_polygon, rotation, reference, cancel, &metric->rest);
+        return untangle(work_mesh, input.boundary.loop, work_polygon, rotation, reference, cancel, &metric->rest,
+                        untangle_freely());
       });
+      adopt_untangled_rotation();
       if (out.untangling.succeeded) {
         out.map = untangled_map(work_mesh, out.untangling);
         out.metric.path = "untangled";
@@ -526,8 +550,9 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
     if (options.refine && options.untangle) {
       out.untangling = run_stage(Stage::untangle, time.untangle, cancel, progress, [&] {
         return untangle(work_mesh, input.boundary.loop, work_polygon, out.classification.rotation_indices,
-                        side->composition.uv, cancel, metric ? &metric->rest : nullptr);
+                        side->composition.uv, cancel, metric ? &metric->rest : nullptr, untangle_freely());
       });
+      adopt_untangled_rotation();
     }
     out.map = run_stage(Stage::refine, time.refine, cancel, progress, [&] {
       // An untangled map is the answer as it stands: refine(..., false) would only rebuild the composed map

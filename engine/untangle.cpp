@@ -139,7 +139,7 @@ RefinedMap untangled_map(const DiskMesh& source, Untangling& u) {
 
 Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const BoundaryPolygon& polygon,
                     const std::vector<int>& rotation, const std::vector<Point2>& composed_uv,
-                    const CancelToken* cancel, const std::vector<Point3>* rest) {
+                    const CancelToken* cancel, const std::vector<Point3>* rest, bool any_rotation) {
   Untangling out;
   out.flipped_before = out.flipped_after = count_non_positive(composed_uv, source.faces);
   if (out.flipped_before == 0) {
@@ -253,14 +253,18 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
   // angle sum 4 pi) and from the composed start kept 350 folds after 3,270 steps (34 s): L-BFGS then, as before.
   const bool all_zero_rotation = std::all_of(rotation.begin(), rotation.end(), [](int r) { return r == 0; });
   // verify's complaint about x (every face positive) as the untangled answer, empty when it passes; the angle
-  // sums and rotation indices are its checks. uv_error: that of uv, once known.
+  // sums and rotation indices are its checks (any R_k >= 0 with any_rotation). uv_error: that of uv, once known;
+  // verified_rotation: the R_k of the map that passed last.
+  std::vector<int> verified_rotation;
   auto verify_error = [&](const std::vector<Point2>& x) -> std::string {
     Untangling probe;
     probe.inserted = out.inserted;
     probe.faces = out.faces;
     probe.uv = x;
     try {
-      verify_map(source, loop, polygon, rotation, untangled_map(source, probe));
+      verified_rotation =
+          verify_map(source, loop, polygon, any_rotation ? std::vector<int>{} : rotation, untangled_map(source, probe))
+              .rotation_indices;
     } catch (const InternalError& e) {
       return e.what();
     }
@@ -287,8 +291,11 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
       // pinned boundary keeps the harmonic start close to the polygon. The one with fewer non-positive faces
       // goes first (with half the steps); the other gets what is left.
       // A start that ends with every face positive but fails verify (a branch point: an interior angle sum of
-      // 4 pi, or a boundary vertex off its rotation index; maze / weak_fan from the harmonic start) counts as
-      // failed, and the other start gets the rest of the steps.
+      // 4 pi, or a boundary vertex off its rotation index) counts as failed, and the other start gets the rest
+      // of the steps. So does L-BFGS's second start always: cut at a quarter of the budget it can stop halfway
+      // (maze / weak_fan from the harmonic start: 752 -> 181 folds in its 1,635 steps, none left after 2,845),
+      // and the chord-split passes after it restart eps from the worst determinant, which undoes progress
+      // rather than extends it (181 -> 560 folds in the 635 steps they had).
       std::vector<Point2> other = uv;
       descent.harmonic(other);
       if (count_non_positive(other, faces) < count_non_positive(uv, faces)) std::swap(uv, other);
@@ -296,7 +303,7 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
       if (out.flipped_after == 0) uv_error = verify_error(uv);
       const bool branched = uv_error && !uv_error->empty();
       if ((out.flipped_after > 0 || branched) && spent() < steps_in_all) {
-        const int left = run(descent, faces, other, (steps_in_all - spent()) / (branched ? 1 : 2), newton);
+        const int left = run(descent, faces, other, (steps_in_all - spent()) / (branched || !newton ? 1 : 2), newton);
         if (branched || left < out.flipped_after) {
           out.flipped_after = left;
           uv.swap(other);
@@ -352,6 +359,7 @@ Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const 
     return out;
   }
   out.succeeded = true;
+  out.rotation_indices = std::move(verified_rotation);
   out.outcome = (out.moved_locally > 0 ? "untangled locally (" + std::to_string(out.moved_locally) + " vertices moved) in "
                                        : std::string("untangled in ")) +
                 std::to_string(out.rounds) + " rounds, " + std::to_string(out.iterations) +

@@ -50,6 +50,9 @@ struct Untangling {
   // fixed non-positive faces split at their midpoints (inserted[i] is vertex source.vertices.size() + i).
   std::vector<InsertedVertex> inserted;
   std::vector<Triangle> faces;
+  // When succeeded: the map's rotation index R_k at each boundary vertex loop[k]. The classification's, unless
+  // untangle was free to place them (any_rotation): then the extra turns may sit at other vertices.
+  std::vector<int> rotation_indices;
   // The untangled map (one per vertex of that mesh) when succeeded; when attempted and failed, its last iterate
   // (engine/fold_region.h refines only around the folds left in it).
   std::vector<Point2> uv;
@@ -60,9 +63,13 @@ RefinedMap untangled_map(const DiskMesh& source, Untangling& u);
 
 // composed_uv: the vertex-wise map after relocation, boundary vertex loop[k] at polygon.vertices[k].
 // rotation: the classification's R_k. rest: the triangles' rest shapes, one point per source vertex (a
-// reference metric's, engine/reference_metric.h); null for the 3D mesh itself. Throws Cancelled.
+// reference metric's, engine/reference_metric.h); null for the 3D mesh itself. any_rotation: nobody prescribed
+// the R_k (the classification's free search chose them, paper 3.1): a map with every face positive and one full
+// turn at every interior vertex is accepted with whatever R_k >= 0 it has at the boundary vertices (where the
+// polygon's extra turns go is open, and this map needs no insertion). Throws Cancelled.
 Untangling untangle(const DiskMesh& source, const std::vector<int>& loop, const BoundaryPolygon& polygon,
                     const std::vector<int>& rotation, const std::vector<Point2>& composed_uv,
-                    const CancelToken* cancel = nullptr, const std::vector<Point3>* rest = nullptr);
+                    const CancelToken* cancel = nullptr, const std::vector<Point3>* rest = nullptr,
+                    bool any_rotation = false);
 
 }  // namespace lipmap

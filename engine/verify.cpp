@@ -62,6 +62,7 @@ VerifyReport verify_map(const DiskMesh& source, const std::vector<int>& loop, co
   const MeshTopology& source_mesh = source.topology;
   auto source_edge = [&](int a, int b) { return a < nv_source && b < nv_source ? source_mesh.find_edge(a, b) : -1; };
   const int n = static_cast<int>(loop.size());
+  report.rotation_indices.assign(static_cast<std::size_t>(n), 0);
   for (std::size_t i = 0; i < map.inserted.size(); ++i) {
     const InsertedVertex& iv = map.inserted[i];
     const std::string name = "inserted vertex " + std::to_string(nv_source + i);
@@ -165,9 +166,10 @@ VerifyReport verify_map(const DiskMesh& source, const std::vector<int>& loop, co
       detail::TurnCount count(uv[v], uv[first]);
       for (std::size_t i = fan.size(); i-- > 0;) count.add(uv[mesh.to(fan[i])], uv[mesh.from(MeshTopology::prev(fan[i]))]);
       const int r = detail::rotation_index(uv[v], uv[first], uv[last], count.turns());
-      if (r != rotation[k])
+      if (rotation.empty() ? r < 0 : r != rotation[k])
         fail("boundary vertex " + std::to_string(v) + " has rotation index " + std::to_string(r) + " instead of " +
-             std::to_string(rotation[k]));
+             (rotation.empty() ? std::string("at least 0") : std::to_string(rotation[k])));
+      report.rotation_indices[k] = r;
     }
   }
   report.faces_checked = static_cast<int>(map.faces.size());

@@ -6,7 +6,8 @@
 //                              room; each with more room, by the tests' own count of faces and angle.
 //   RotationPlacementPipeline  shared meshes onto weak_fan targets without their indices: the answer passes the
 //                              contract with the indices it reports, and its composed map folds no more than the
-//                              free search's placement does.
+//                              free search's placement does; an untangled map with its extra turn elsewhere is
+//                              taken as it is (maze: no point inserted).
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -119,6 +120,29 @@ TEST(RotationPlacementPipeline, SharedMeshesOntoWeakFanTargetsFoldNoMoreThanTheF
                 other ? "another vertex" : "the same", first.map.inserted.size(), chosen.map.inserted.size());
   }
   EXPECT_GE(moved, 1);
+}
+
+// With no indices prescribed, where the extra turn goes is open (paper 3.1): an untangled map of the unrefined
+// mesh with every face positive, one turn at every interior vertex and its extra turn at a boundary vertex of its
+// own choosing is an answer that needs no insertion. The maze onto its weak_fan target is such a case (the
+// untangler's map puts the turn elsewhere than every placement classify and the candidates tried; matching
+// them took 2,055 inserted points). The checker takes the indices the answer reports.
+TEST(RotationPlacementPipeline, SharedMazeOntoWeakFanWithoutIndicesKeepsTheUntangledMapsOwnPlacement) {
+  const Case c = weak_fan_case("maze.obj");
+  ASSERT_FALSE(c.target.positions.empty());
+  RawBoundary free_boundary;
+  free_boundary.positions = c.target.positions;
+  const ParametrizeResult r = parametrize(c.mesh->raw, free_boundary, {});
+  targetgen::Target reported = c.target;
+  reported.rotation_indices = r.classification.rotation_indices;
+  const mapcheck::Report report = pipelinecases::check(*c.mesh, reported, r);
+  EXPECT_TRUE(report.ok()) << report.str();
+  EXPECT_TRUE(r.untangling.succeeded) << r.untangling.outcome;
+  EXPECT_EQ(r.map.inserted.size(), 0u);
+  int turns = 0;
+  for (int x : r.classification.rotation_indices) turns += x;
+  EXPECT_EQ(turns, 1);  // turning number 2: one extra turn in all
+  std::printf("[ placement ] maze: %s\n", r.untangling.outcome.c_str());
 }
 
 }  // namespace

@@ -237,6 +237,37 @@ TEST(VerifyMapFan, RejectsAnInteriorVertexWindingTwice) {
   }
 }
 
+// A fan around a boundary hub whose other vertices spiral through 3 pi: the hub's angle in the map is 3 pi and
+// the polygon's interior angle there is pi, so R = 1 at the hub and 0 elsewhere, by construction. Prescribed
+// zeros are refused at the hub; an empty prescription accepts the map and reports those indices.
+TEST(VerifyMapFan, AnEmptyPrescriptionReportsTheMapsOwnRotationIndices) {
+  for (int m = 8; m <= 40; m += 4) {
+    RawMesh raw;
+    raw.vertices.push_back({0, 0, 0});
+    std::vector<Point2> uv{{0, 0}};
+    for (int j = 0; j < m; ++j) {
+      const double theta = 3 * M_PI * j / (m - 1), r = 1 + 0.5 * j / (m - 1);
+      raw.vertices.push_back({r * std::cos(theta), r * std::sin(theta), theta / 8});
+      uv.push_back({r * std::cos(theta), r * std::sin(theta)});
+    }
+    for (int j = 1; j < m; ++j) raw.faces.push_back({0, j, j + 1});
+    Case c;
+    c.mesh = validate_mesh(raw);
+    c.map.vertices = c.mesh.vertices;
+    c.map.faces = c.mesh.faces;
+    c.map.uv = uv;
+    for (int v : c.mesh.boundary_loop) c.polygon.vertices.push_back(c.map.uv[v]);
+    std::vector<int> expected(c.mesh.boundary_loop.size(), 0);
+    for (std::size_t k = 0; k < expected.size(); ++k) expected[k] = c.mesh.boundary_loop[k] == 0 ? 1 : 0;
+    c.rotation.assign(c.mesh.boundary_loop.size(), 0);
+    EXPECT_NE(verdict(c).find("boundary vertex 0 has rotation index 1 instead of 0"), std::string::npos)
+        << "m " << m << ": " << verdict(c);
+    const VerifyReport r = verify_map(c.mesh, c.mesh.boundary_loop, c.polygon, {}, c.map);
+    EXPECT_EQ(r.rotation_indices, expected) << "m " << m;
+    EXPECT_EQ(verify_map(c.mesh, c.mesh.boundary_loop, c.polygon, expected, c.map).rotation_indices, expected);
+  }
+}
+
 // Edge (a, b) carries two inserted points, m1 (t = 1/4) and m2 (t = 1/2); face (a, m1, m2) has all three
 // corners on the edge: flat in 3D. In uv, m1 is moved slightly towards d (right of a -> b) so that every
 // triangle is positive and the angle sums hold: only the 3D rule is broken.
