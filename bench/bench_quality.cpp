@@ -197,17 +197,6 @@ int main(int argc, char** argv) {
           r.cert_on_source = lipmap::count_non_positive(cert, mesh.faces) == 0;
           if (r.cert_on_source) r.cert_mean_k = lipmap::conformal_distortion(mesh.vertices, mesh.faces, cert).mean;
         }
-        // The chord bound of the polygon's own classification, for rows that time out; an answer's replaces it
-        // (with its rotation indices placed, a weakly self-overlapping polygon's triangulation can differ).
-        try {
-          lipmap::BoundaryPolygon polygon{b.positions, std::nullopt};
-          if (b.rotation_indices) polygon.rotation_indices.emplace(b.rotation_indices->begin(), b.rotation_indices->end());
-          const lipmap::Classification c = lipmap::classify(polygon);
-          if (c.verdict != lipmap::Verdict::not_self_overlapping)
-            r.chord_bound = lipmap::bench::chord_lower_bound(mesh, b.positions, c.triangulation,
-                                                             c.verdict == lipmap::Verdict::simple).points;
-        } catch (const std::exception&) {
-        }
         lipmap::CancelToken token;
         token.set_deadline(Clock::now() + std::chrono::milliseconds(static_cast<long long>(budget_s * 1000)));
         try {
@@ -245,6 +234,18 @@ int main(int argc, char** argv) {
           r.error = e.what();
         }
         if (!r.error.empty()) {
+          // No answer (a timeout): the bound of the polygon's own classification. (An answer's triangulation is
+          // the one to use when there is one: with its rotation indices placed, a weakly self-overlapping
+          // polygon's can differ.)
+          try {
+            lipmap::BoundaryPolygon polygon{b.positions, std::nullopt};
+            if (b.rotation_indices) polygon.rotation_indices.emplace(b.rotation_indices->begin(), b.rotation_indices->end());
+            const lipmap::Classification c = lipmap::classify(polygon);
+            if (c.verdict != lipmap::Verdict::not_self_overlapping)
+              r.chord_bound = lipmap::bench::chord_lower_bound(mesh, b.positions, c.triangulation,
+                                                               c.verdict == lipmap::Verdict::simple).points;
+          } catch (const std::exception&) {
+          }
           std::printf("%-26s %-10s %4d error: %s", name.c_str(), r.kind.c_str(), seed, r.error.substr(0, 200).c_str());
           if (r.chord_bound >= 0) std::printf(" (chordLB %lld)", r.chord_bound);
           std::printf("\n");

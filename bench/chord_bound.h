@@ -116,7 +116,7 @@ inline ChordBound chord_lower_bound(const DiskMesh& mesh, const std::vector<Poin
       if (it != half.end()) across[3 * f + c] = it->second / 3;
       fan[i].push_back(f);
     }
-  std::vector<int> parent(nt), via(nt), seen(nt, -1);
+  std::vector<int> parent(nt), via(nt), seen(nt, -1), goal(nt, -1);  // seen, goal: stamped with the chord's query
   int query = 0;
   for (int e = 0; e < mesh.topology.edge_count(); ++e) {
     if (mesh.topology.is_boundary_edge(e)) continue;
@@ -132,13 +132,12 @@ inline ChordBound chord_lower_bound(const DiskMesh& mesh, const std::vector<Poin
       parent[f] = -1;
       queue.push_back(f);
     }
-    std::vector<char> goal(nt, 0);
-    for (int f : fan[b]) goal[f] = 1;
+    for (int f : fan[b]) goal[f] = query;
     int hit = -1;
     while (!queue.empty() && hit < 0) {
       const int f = queue.front();
       queue.pop_front();
-      if (goal[f]) hit = f;
+      if (goal[f] == query) hit = f;
       for (int c = 0; c < 3 && hit < 0; ++c) {
         const int g = across[3 * f + c];
         if (g < 0 || seen[g] == query) continue;
