@@ -31,9 +31,11 @@ using AllowedTriangle = std::function<bool(int i, int k, int j)>;
 ShorVanWykResult shor_van_wyk(const std::vector<Pt>& polygon, const std::vector<int>* turns,
                               const CancelToken* cancel, const AllowedTriangle* allowed = nullptr);
 
-// A triangulation of a small polygon in which every angle is the polygon's own interior angle (all R_i = 0:
-// the polygon is self-overlapping, section 3.1), or none. No ear reduction: meant for the refined triangles'
-// image polygons, a handful of vertices each.
+// A triangulation of a polygon in which every angle is the polygon's own interior angle (all R_i = 0: the
+// polygon is self-overlapping, section 3.1), or none: the refined triangles' image polygons (refine's test,
+// called for every step of its simplification). Above 6 vertices safe ears are clipped first (App. C) and the
+// table runs on what is left; with `allowed`, a failure there is decided again on the whole polygon only when
+// the clipped polygon has a triangulation once every triangle is allowed (else none exists).
 std::optional<std::vector<Triangle>> triangulate_self_overlapping(const std::vector<Pt>& polygon,
                                                                   const AllowedTriangle* allowed = nullptr);
 
