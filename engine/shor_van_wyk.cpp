@@ -298,7 +298,7 @@ std::optional<std::vector<Triangle>> triangulate_with_rotation(const std::vector
   // wrong choice, so a failure is re-decided by the table on the whole polygon, unless the clipped polygon
   // fails even with every triangle allowed: then so does P (the clips are safe whatever was forbidden), and
   // with fewer triangles allowed it fails all the more. (Refused simplification steps of refine are mostly of
-  // that kind: on the maze onto exp_strip, 635k of 656k such failures.)
+  // that kind: on the maze onto exp_strip, 631k of 656k such failures.)
   if (polygon.size() > 6) {
     EarReduction reduced = clip_ears(polygon, turns, nullptr, allowed);
     if (!reduced.ears.empty()) {
