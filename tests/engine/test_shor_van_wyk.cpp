@@ -1,80 +1,43 @@
 // The refinement's polygon test (engine/detail/shor_van_wyk.h: triangulate_self_overlapping with a forbidden-
 // triangle predicate, ear clipping in front of the table) against a brute force written here: every
-// triangulation of the polygon (Catalan many) enumerated, each checked with exact rational orientations, the
-// forbidden predicate, and angle sums in long double (a triangulation with positive triangles has at each vertex
-// the polygon's angle plus a whole number of turns, so rounding cannot decide between a match and a miss).
+// triangulation of the polygon (Catalan many) enumerated, each checked by the independent triangulation checker
+// of tests/support (exact orientations; angle sums in long double, where a triangulation with positive triangles
+// has at each vertex the polygon's angle plus a whole number of turns, so rounding cannot decide between a match
+// and a miss) and by the forbidden predicate.
 // Polygons are made like refine's image polygons: the three corners of a source face and points on its edges,
 // mapped by a random, sometimes folding, distortion; triangles with all corners on one edge are forbidden.
 #include <gtest/gtest.h>
 
-#include <CGAL/Exact_rational.h>
-
 #include <algorithm>
 #include <cmath>
 #include <functional>
-#include <map>
 #include <random>
 #include <utility>
 #include <vector>
 
 #include "engine/detail/shor_van_wyk.h"
+#include "tests/support/triangulation_checker.h"
 
 namespace lipmap {
 namespace {
 
 using detail::Pt;
-using Q = CGAL::Exact_rational;
-constexpr long double kPi = 3.141592653589793238462643383279502884L;
 
 struct ImagePolygon {
   std::vector<Point2> points;
   std::vector<unsigned> edges;  // bit i: the vertex lies on source edge i (corner i lies on edges i and i - 1)
 };
 
-int exact_sign(const Point2& a, const Point2& b, const Point2& c) {
-  const Q d = (Q(b.x) - Q(a.x)) * (Q(c.y) - Q(a.y)) - (Q(b.y) - Q(a.y)) * (Q(c.x) - Q(a.x));
-  return d > 0 ? 1 : d < 0 ? -1 : 0;
-}
-
-long double angle_at(const Point2& o, const Point2& from, const Point2& to) {  // counterclockwise, [0, 2 pi)
-  const long double a = std::atan2(static_cast<long double>(from.y) - o.y, static_cast<long double>(from.x) - o.x);
-  const long double b = std::atan2(static_cast<long double>(to.y) - o.y, static_cast<long double>(to.x) - o.x);
-  long double d = b - a;
-  while (d < 0) d += 2 * kPi;
-  while (d >= 2 * kPi) d -= 2 * kPi;
-  return d;
-}
-
-// A triangulation of the polygon (indices) that the refinement may use: n - 2 triangles, each strictly positive
-// and not forbidden, the polygon's edges each used once in its direction, every other edge by two triangles in
-// opposite directions, and at every vertex the triangles' angles adding up to the polygon's own angle.
+// A triangulation of the polygon that the refinement may use: the project's independent triangulation checker
+// (tests/support/triangulation_checker.h: n - 2 strictly positive triangles forming a disk, every angle the
+// polygon's own, R_i = 0) and no triangle with all its corners on one source edge.
 bool valid_triangulation(const ImagePolygon& p, const std::vector<Triangle>& tris) {
-  const int n = static_cast<int>(p.points.size());
-  if (static_cast<int>(tris.size()) != n - 2) return false;
-  std::map<std::pair<int, int>, int> directed;
-  std::vector<long double> sum(static_cast<std::size_t>(n), 0);
-  for (const Triangle& t : tris) {
-    for (int k = 0; k < 3; ++k)
-      if (t[k] < 0 || t[k] >= n) return false;
-    if (exact_sign(p.points[t[0]], p.points[t[1]], p.points[t[2]]) <= 0) return false;
+  for (const Triangle& t : tris)
     if ((p.edges[t[0]] & p.edges[t[1]] & p.edges[t[2]]) != 0) return false;
-    for (int k = 0; k < 3; ++k) {
-      const int a = t[k], b = t[(k + 1) % 3], c = t[(k + 2) % 3];
-      ++directed[{a, b}];
-      sum[a] += angle_at(p.points[a], p.points[b], p.points[c]);
-    }
-  }
-  for (const auto& [edge, count] : directed) {
-    if (count != 1) return false;
-    const bool polygon_edge = edge.second == (edge.first + 1) % n;
-    if (!polygon_edge && !directed.count({edge.second, edge.first})) return false;
-  }
-  for (int k = 0; k < n; ++k) {
-    if (!directed.count({k, (k + 1) % n})) return false;
-    const long double alpha = angle_at(p.points[k], p.points[(k + 1) % n], p.points[(k + n - 1) % n]);
-    if (std::fabs(sum[k] - alpha) > 1e-6L) return false;
-  }
-  return true;
+  testgen::Poly poly;
+  for (const Point2& q : p.points) poly.push_back({q.x, q.y});
+  const std::vector<testgen::Tri> tri(tris.begin(), tris.end());
+  return testgen::check_triangulation(poly, tri, std::vector<int>(poly.size(), 0)).ok();
 }
 
 // Every triangulation of the sub-polygon i..j (base edge j -> i), as lists of triangles, passed to `visit`
