@@ -124,6 +124,25 @@ float to_float32(double x) {
   return f;
 }
 
+bool float32_face_valid(const Point2& a, const Point2& b, const Point2& c) {
+  Stored s{std::vector<Point2>(3), std::vector<Point2>(3)};
+  const Point2* corners[3] = {&a, &b, &c};
+  for (std::size_t v = 0; v < 3; ++v) s.set(v, to_float32(corners[v]->x), to_float32(1.0 - corners[v]->y));
+  return s.valid({0, 1, 2});
+}
+
+bool float32_face_robust(const Point2& a, const Point2& b, const Point2& c) {
+  const double scale = std::max({std::abs(a.x), std::abs(a.y), std::abs(b.x), std::abs(b.y), std::abs(c.x),
+                                 std::abs(c.y), std::abs(1.0 - a.y), std::abs(1.0 - b.y),
+                                 std::abs(1.0 - c.y)});
+  const double half_ulp = std::ldexp(scale, -24);  // float32 rounding moves each coordinate by at most this
+  const double area2 = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+  const double perimeter = std::hypot(b.x - a.x, b.y - a.y) + std::hypot(c.x - b.x, c.y - b.y) +
+                           std::hypot(a.x - c.x, a.y - c.y);
+  // A corner moved by at most sqrt(2) half_ulp changes the doubled area by at most that times its opposite edge.
+  return area2 > 2 * std::sqrt(2.0) * half_ulp * perimeter;
+}
+
 Float32Uv float32_texcoords(const std::vector<Point2>& uv, const std::vector<Triangle>& faces) {
   const std::size_t nv = uv.size();
   Stored s{std::vector<Point2>(nv), std::vector<Point2>(nv)};

@@ -37,6 +37,16 @@ struct Float32Uv {
 // vertices are those on an edge that one face uses.
 Float32Uv float32_texcoords(const std::vector<Point2>& uv, const std::vector<Triangle>& faces);
 
+// Whether a triangle with these corners, stored by plain rounding (no repair: as a boundary vertex is stored),
+// passes the face test above: strictly clockwise in the float (s, t) and counterclockwise in (s, 1 - t).
+bool float32_face_valid(const Point2& a, const Point2& b, const Point2& c);
+
+// Whether the triangle's doubled area, counterclockwise, exceeds (twice over) what moving each corner by half a
+// float32 ulp at the corners' largest magnitude can change: then no rounding of its corners to float32 flips or
+// flattens it. A thinner one that float32_face_valid accepts passed by the luck of the rounding, with a K near
+// 1e7 as stored and far more in doubles.
+bool float32_face_robust(const Point2& a, const Point2& b, const Point2& c);
+
 // Rounds to float32, always: the compiler may not elide the conversion (see float32_uv.cpp). The glTF writer
 // stores every FLOAT with it, so that what is written is what was checked.
 float to_float32(double x);

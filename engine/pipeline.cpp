@@ -13,6 +13,7 @@
 #include "engine/convex_domain.h"
 #include "engine/direct_map.h"
 #include "engine/extremal_relax.h"
+#include "engine/fixed_face_split.h"
 #include "engine/flip_check.h"
 #include "engine/fold_region.h"
 #include "engine/reference_metric.h"
@@ -167,7 +168,8 @@ constexpr double kWholeMeshTargetDensity = 0.1;
 
 ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& raw_boundary,
                                    const ParametrizeOptions& options, const CancelToken* cancel,
-                                   const ProgressFn& progress, bool relax_max_k, bool whole_mesh = false);
+                                   const ProgressFn& progress, bool relax_max_k, bool whole_mesh = false,
+                                   bool fold_region = false);
 
 // Refinement only where the untangler failed (engine/fold_region.h): the regions around the folds of a map of
 // the unrefined mesh, each mapped by the paper's path onto the image of its own boundary, spliced, and kept only
@@ -191,7 +193,7 @@ std::optional<RefinedMap> refine_in_fold_regions(const DiskMesh& mesh, const std
       std::vector<RefinedMap> maps;
       try {
         for (const FoldRegion& r : regions.regions)
-          maps.push_back(parametrize_once(r.mesh, r.boundary, inner, cancel, {}, false, true).map);
+          maps.push_back(parametrize_once(r.mesh, r.boundary, inner, cancel, {}, false, true, true).map);
       } catch (const InputError&) {  // e.g. a region's boundary polygon is not self-overlapping
         continue;
       } catch (const InternalError&) {
@@ -214,10 +216,11 @@ std::optional<RefinedMap> refine_in_fold_regions(const DiskMesh& mesh, const std
 // One run of the pipeline. relax_max_k: finish with the extremal relaxation (max K) in place of optimize,
 // whatever options.method (method extremal's second start, see parametrize below). whole_mesh: when the
 // untangler fails, refine the whole mesh, never regions of it: a fold region's own run (refine_in_fold_regions),
-// and method extremal's alternative to its start refined in regions (parametrize below).
+// and method extremal's alternative to its start refined in regions (parametrize below). fold_region: a fold
+// region's own run, whose boundary is not the answer's (no fixed-face split there).
 ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& raw_boundary,
                                    const ParametrizeOptions& options, const CancelToken* cancel,
-                                   const ProgressFn& progress, bool relax_max_k, bool whole_mesh) {
+                                   const ProgressFn& progress, bool relax_max_k, bool whole_mesh, bool fold_region) {
   const auto start = Clock::now();
   check_options(options);
   ParametrizeResult out;
@@ -289,6 +292,11 @@ ParametrizeResult parametrize_once(const RawMesh& raw_mesh, const RawBoundary& r
                                      cancel);
       });
     }
+    // A face that the polygon pins and makes too thin to be stored as float32 gets a point on its chord
+    // (engine/fixed_face_split.h); not in a reproduced reference map, which is returned as it is, nor in a fold
+    // region, whose boundary vertices are not pinned in the answer.
+    if (options.refine && !out.metric.reproduced && !fold_region)
+      out.fixed_faces = split_unstorable_fixed_faces(work_mesh, input.boundary.loop, out.polygon.vertices, out.map);
     // Quality is scale-invariant: measured at the working scale, where areas neither overflow nor underflow.
     // (Copies only when a scale applies: otherwise to_caller_scale leaves the values as they are.)
     const bool rescaled = mesh_k != 0 || polygon_k != 0;

@@ -13,6 +13,7 @@
 #include "engine/disk_mesh.h"
 #include "engine/error.h"
 #include "engine/extremal_relax.h"
+#include "engine/fixed_face_split.h"
 #include "engine/intermediate_map.h"
 #include "engine/optimize.h"
 #include "engine/parametrize_options.h"
@@ -75,6 +76,7 @@ struct ParametrizeResult {
   Untangling untangling;            // flips before and after untangling; succeeded: no refinement was needed
   Optimization optimization;        // energy and distortion before optimization (after: `distortion`)
   Sliding sliding;                  // inserted points slid along their edges after it (engine/slide_inserted.h)
+  FixedFaceSplit fixed_faces;       // fixed faces not storable as float32, and the chords split for them
   ExtremalReport extremal;          // method extremal only (ran: false otherwise)
   MetricReport metric;              // options.metric (paper 5.2): the path taken, T's flips, distance to T
   int flipped = 0;                  // non-positive uv triangles of the result: 0 whenever refine is on

@@ -624,7 +624,8 @@ ordered_json detail::result_json(const lipmap::ParametrizeResult& r, bool big) {
                      {"simplification_rounds", m.simplification_rounds},
                      {"regions", m.regions},
                      {"region_faces", m.region_faces},
-                     {"points_slid", r.sliding.points_moved}};
+                     {"points_slid", r.sliding.points_moved},
+                     {"fixed_faces_split", r.fixed_faces.split}};
   d["untangling"] = {{"attempted", r.untangling.attempted},
                      {"succeeded", r.untangling.succeeded},
                      {"flipped_before", r.untangling.flipped_before},

@@ -127,7 +127,7 @@ std::optional<std::vector<Point2>> metric_from_json(const nlohmann::json& metric
 //                  "intermediate_maps": {"source", "target"} ("primary" | "mean_value" | "tutte"),
 //                  "refinement": {"relocated_vertices", "flipped_after_relocation", "refined_faces",
 //                                 "points_before_simplification", "simplification_rounds", "regions",
-//                                 "region_faces", "points_slid"},
+//                                 "region_faces", "points_slid", "fixed_faces_split"},
 //                  "distortion": {"max", "mean", "histogram": {"edges": [1, 1.1, ..., 10], "counts": [...]}},
 //                  "timings_ms": {"validate", "classify", "target_mesh", "intermediate_maps", "compose",
 //                                 "refine", "verify", "quality", "total"}}}

@@ -30,6 +30,9 @@
 //                      triangle whose corners all lie on one original edge, and the uv angle sum at a and at b
 //                      would not change (when v is next to them on the edge), v was removable: a failure. A
 //                      removable point whose polygons are self-overlapping but not simple is not detected.
+//                      Exempt: the only point on an edge of a source face whose three corners are boundary
+//                      vertices pinned where float32 rounding may flatten or flip it, when float32 can hold P
+//                      (contract point 6).
 #pragma once
 
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
@@ -158,6 +161,32 @@ inline std::unordered_map<std::uint64_t, EdgeUse> edge_uses(const std::vector<Tr
   return uses;
 }
 
+
+// ---- float32 (contract point 6's exception) ----
+
+// The triangle stored as glTF stores uv, (fl32(u), fl32(1 - v)), read back as (s, 1 - t): counterclockwise?
+inline bool positive_in_float32(const Point2& a, const Point2& b, const Point2& c) {
+  auto back = [](const Point2& p) {
+    volatile float s = static_cast<float>(p.x), t = static_cast<float>(1.0 - p.y);
+    return K::Point_2(s, 1.0 - static_cast<double>(t));
+  };
+  return CGAL::orientation(back(a), back(b), back(c)) == CGAL::LEFT_TURN;
+}
+
+// Counterclockwise with a doubled area above 2 sqrt(2) h times the perimeter, h = 2^-24 times the largest of
+// |u|, |v|, |1 - v| over the corners: the most float32 rounding can take from it (each corner moves by at most
+// sqrt(2) h, changing the doubled area by at most that times the opposite side), twice over.
+inline bool clear_of_float32_rounding(const Point2& a, const Point2& b, const Point2& c) {
+  long double m = 0;
+  for (const Point2* p : {&a, &b, &c})
+    m = std::max({m, std::fabs(static_cast<long double>(p->x)), std::fabs(static_cast<long double>(p->y)),
+                  std::fabs(1.0L - p->y)});
+  const long double h = std::ldexp(m, -24);
+  auto side = [](const Point2& p, const Point2& q) { return std::hypot(static_cast<long double>(q.x) - p.x, static_cast<long double>(q.y) - p.y); };
+  const long double area2 = (static_cast<long double>(b.x) - a.x) * (static_cast<long double>(c.y) - a.y) -
+                            (static_cast<long double>(b.y) - a.y) * (static_cast<long double>(c.x) - a.x);
+  return area2 > 2 * std::sqrt(2.0L) * h * (side(a, b) + side(b, c) + side(c, a));
+}
 
 // ---- minimality (Fig. 11) helpers ----
 
@@ -498,11 +527,38 @@ inline Report check_map(const SourceMesh& src, const std::vector<Point2>& prescr
       }
       return sum;
     };
+    // Contract point 6's exception: a face whose three corners are on the boundary, pinned where float32 cannot
+    // be trusted to keep it positive, may have one point on its chord.
+    std::vector<int> loop_position(n0, -1);
+    for (std::size_t k = 0; k < src.loop.size(); ++k) loop_position[static_cast<std::size_t>(src.loop[k])] = static_cast<int>(k);
+    // ... when float32 can hold P at all: every u, v, 1 - v under 1e37 in magnitude, P 2^12 spacings across.
+    long double magnitude = 0, lo_x = 0, hi_x = 0, lo_y = 0, hi_y = 0;
+    for (std::size_t k = 0; k < prescribed.size(); ++k) {
+      const Point2& p = prescribed[k];
+      magnitude = std::max({magnitude, std::fabs(static_cast<long double>(p.x)), std::fabs(static_cast<long double>(p.y)),
+                            std::fabs(1.0L - p.y)});
+      if (k == 0) lo_x = hi_x = p.x, lo_y = hi_y = p.y;
+      lo_x = std::min<long double>(lo_x, p.x), hi_x = std::max<long double>(hi_x, p.x);
+      lo_y = std::min<long double>(lo_y, p.y), hi_y = std::max<long double>(hi_y, p.y);
+    }
+    const bool float32_holds_p = magnitude < 1e37L && std::max(hi_x - lo_x, hi_y - lo_y) >= std::ldexp(magnitude, -12);
+    auto thin_for_float32 = [&](int f) {
+      if (!float32_holds_p) return false;
+      std::array<Point2, 3> p;
+      for (int c = 0; c < 3; ++c) {
+        const int k = loop_position[static_cast<std::size_t>(src.faces[f][c])];
+        if (k < 0 || static_cast<std::size_t>(k) >= prescribed.size()) return false;
+        p[c] = prescribed[static_cast<std::size_t>(k)];
+      }
+      return !positive_in_float32(p[0], p[1], p[2]) || !clear_of_float32_rounding(p[0], p[1], p[2]);
+    };
     for (std::size_t i = 0; i < res.inserted.size(); ++i) {
       const int v = static_cast<int>(n0 + i);
       const Inserted& ins = res.inserted[i];
       const auto it = edge_faces.find(key(ins.a, ins.b));
       if (it == edge_faces.end() || it->second.size() != 2) continue;  // reported above
+      if (on_source_edge[key(ins.a, ins.b)].size() == 1 && (thin_for_float32(it->second[0]) || thin_for_float32(it->second[1])))
+        continue;
       bool removable = true;
       std::vector<std::vector<int>> without(2);
       for (int side = 0; side < 2 && removable; ++side) {
