@@ -182,7 +182,9 @@ inline bool clear_of_float32_rounding(const Point2& a, const Point2& b, const Po
     m = std::max({m, std::fabs(static_cast<long double>(p->x)), std::fabs(static_cast<long double>(p->y)),
                   std::fabs(1.0L - p->y)});
   const long double h = std::ldexp(m, -24);
-  auto side = [](const Point2& p, const Point2& q) { return std::hypot(static_cast<long double>(q.x) - p.x, static_cast<long double>(q.y) - p.y); };
+  auto side = [](const Point2& p, const Point2& q) {
+    return std::hypot(static_cast<long double>(q.x) - p.x, static_cast<long double>(q.y) - p.y);
+  };
   const long double area2 = (static_cast<long double>(b.x) - a.x) * (static_cast<long double>(c.y) - a.y) -
                             (static_cast<long double>(b.y) - a.y) * (static_cast<long double>(c.x) - a.x);
   return area2 > 2 * std::sqrt(2.0L) * h * (side(a, b) + side(b, c) + side(c, a));
@@ -530,18 +532,20 @@ inline Report check_map(const SourceMesh& src, const std::vector<Point2>& prescr
     // Contract point 6's exception: a face whose three corners are on the boundary, pinned where float32 cannot
     // be trusted to keep it positive, may have one point on its chord.
     std::vector<int> loop_position(n0, -1);
-    for (std::size_t k = 0; k < src.loop.size(); ++k) loop_position[static_cast<std::size_t>(src.loop[k])] = static_cast<int>(k);
+    for (std::size_t k = 0; k < src.loop.size(); ++k)
+      loop_position[static_cast<std::size_t>(src.loop[k])] = static_cast<int>(k);
     // ... when float32 can hold P at all: every u, v, 1 - v under 1e37 in magnitude, P 2^12 spacings across.
     long double magnitude = 0, lo_x = 0, hi_x = 0, lo_y = 0, hi_y = 0;
     for (std::size_t k = 0; k < prescribed.size(); ++k) {
       const Point2& p = prescribed[k];
-      magnitude = std::max({magnitude, std::fabs(static_cast<long double>(p.x)), std::fabs(static_cast<long double>(p.y)),
-                            std::fabs(1.0L - p.y)});
+      magnitude = std::max({magnitude, std::fabs(static_cast<long double>(p.x)),
+                            std::fabs(static_cast<long double>(p.y)), std::fabs(1.0L - p.y)});
       if (k == 0) lo_x = hi_x = p.x, lo_y = hi_y = p.y;
       lo_x = std::min<long double>(lo_x, p.x), hi_x = std::max<long double>(hi_x, p.x);
       lo_y = std::min<long double>(lo_y, p.y), hi_y = std::max<long double>(hi_y, p.y);
     }
-    const bool float32_holds_p = magnitude < 1e37L && std::max(hi_x - lo_x, hi_y - lo_y) >= std::ldexp(magnitude, -12);
+    const bool float32_holds_p =
+        magnitude < 1e37L && std::max(hi_x - lo_x, hi_y - lo_y) >= std::ldexp(magnitude, -12);
     auto thin_for_float32 = [&](int f) {
       if (!float32_holds_p) return false;
       std::array<Point2, 3> p;
@@ -557,7 +561,8 @@ inline Report check_map(const SourceMesh& src, const std::vector<Point2>& prescr
       const Inserted& ins = res.inserted[i];
       const auto it = edge_faces.find(key(ins.a, ins.b));
       if (it == edge_faces.end() || it->second.size() != 2) continue;  // reported above
-      if (on_source_edge[key(ins.a, ins.b)].size() == 1 && (thin_for_float32(it->second[0]) || thin_for_float32(it->second[1])))
+      if (on_source_edge[key(ins.a, ins.b)].size() == 1 &&
+          (thin_for_float32(it->second[0]) || thin_for_float32(it->second[1])))
         continue;
       bool removable = true;
       std::vector<std::vector<int>> without(2);
