@@ -47,7 +47,6 @@ FixedFaceSplit split_unstorable_fixed_faces(const DiskMesh& source, const std::v
   const std::vector<char> refined_before = refined_source_faces(source, map);
   const MeshTopology topo(static_cast<int>(map.uv.size()), map.faces);
   std::vector<char> changed(map.faces.size(), 0);
-  const std::vector<Triangle> faces = map.faces;  // the faces as found; new ones are appended to map.faces
   for (int f : unstorable) {
     if (changed[f]) continue;
     for (int k = 0; k < 3; ++k) {
@@ -56,7 +55,7 @@ FixedFaceSplit split_unstorable_fixed_faces(const DiskMesh& source, const std::v
       const int g = MeshTopology::face_of(o);
       const int x = topo.from(h), y = topo.to(h);
       if (changed[g] || source.topology.find_edge(x, y) < 0) continue;  // not a chord of the source mesh
-      const int b = faces[f][(k + 2) % 3], d = topo.to(MeshTopology::next(o));
+      const int b = topo.to(MeshTopology::next(h)), d = topo.to(MeshTopology::next(o));  // topo: faces as found
       // f = (x, y, b) becomes (x, m, b), (m, y, b); g = (y, x, d) becomes (y, m, d), (m, x, d). m goes from the
       // chord's middle towards d, as far as keeps all four strictly positive (b is almost on the chord).
       const Point2 &ux = map.uv[x], &uy = map.uv[y], &ub = map.uv[b], &ud = map.uv[d];

@@ -4,14 +4,13 @@
 // each ear is a face whose three corners are boundary vertices, pinned by the polygon, and (P_i, P_{i+1}) is its
 // chord. The target polygon: the same n-gon moved, turned and scaled at random, with each B_i pushed outward from
 // the side's middle by a fraction eps of the side: thin ears (eps 1e-12 .. 1e-9) are positive in doubles but not
-// as float32 texture coordinates, thick ones (eps 1e-3 .. 0.3) are fine. Checked by the test's own code (CGAL's
-// exact orientation on the rounded floats) and the independent map checker (tests/support/map_checker.h):
+// as float32 texture coordinates, thick ones (eps 1e-3 .. 0.3) are fine. Checked with the independent map checker
+// (tests/support/map_checker.h: CGAL's exact orientation, on the rounded floats where float32 is meant):
 //   - every answer passes the contract;
 //   - exactly one point is inserted per thin ear, on its chord, and none for a thick one;
-//   - every face with three boundary corners is strictly positive as stored in float32, (s, 1 - t) read back;
+//   - every face with three boundary corners is strictly positive as stored in float32, (s, 1 - t) read back
+//     (the checker's positive_in_float32);
 //   - the answer's max K is finite and below 1e6 (a thin ear alone has K near 1 / eps).
-#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
-
 #include <cmath>
 #include <iostream>
 #include <random>
@@ -25,21 +24,6 @@
 
 namespace lipmap {
 namespace {
-
-using K = CGAL::Exact_predicates_inexact_constructions_kernel;
-
-float stored_float(double x) {
-  volatile float f = static_cast<float>(x);
-  return f;
-}
-
-// The triangle as glTF stores it, (s, t) = (fl32(u), fl32(1 - v)), read back as (s, 1 - t): counterclockwise?
-bool positive_as_stored(const Point2& a, const Point2& b, const Point2& c) {
-  auto back = [](const Point2& p) {
-    return K::Point_2(stored_float(p.x), 1.0 - static_cast<double>(stored_float(1.0 - p.y)));
-  };
-  return CGAL::orientation(back(a), back(b), back(c)) == CGAL::LEFT_TURN;
-}
 
 struct EarCase {
   RawMesh mesh;
@@ -87,8 +71,7 @@ EarCase make_case(std::mt19937& rng) {
     // Even the thinnest ear is over 1e3 ulps of its coordinates thick: strictly positive in doubles (a valid
     // answer as it stands; only its storage is at stake).
     const Point2 pp = place(p), pq = place(q);
-    EXPECT_EQ(CGAL::orientation(K::Point_2(pp.x, pp.y), K::Point_2(pb.x, pb.y), K::Point_2(pq.x, pq.y)),
-              CGAL::LEFT_TURN);
+    EXPECT_GT(mapcheck::detail::orient(pp, pb, pq), 0);
     positions.push_back(pb);
     (kind == 1 ? c.thin_chords : c.thick_chords).emplace_back(std::min(i, j), std::max(i, j));
   }
@@ -126,7 +109,7 @@ TEST(FixedFaceSplit, ThinEarsGetOnePointOnTheirChordAndAreStorableAsFloat32) {
     for (int v : c.source.loop) on_loop[v] = 1;
     for (const Triangle& t : r.map.faces)
       if (on_loop[t[0]] && on_loop[t[1]] && on_loop[t[2]])
-        EXPECT_TRUE(positive_as_stored(r.map.uv[t[0]], r.map.uv[t[1]], r.map.uv[t[2]]))
+        EXPECT_TRUE(mapcheck::detail::positive_in_float32(r.map.uv[t[0]], r.map.uv[t[1]], r.map.uv[t[2]]))
             << "case " << i << ": face (" << t[0] << ", " << t[1] << ", " << t[2] << ") as float32";
     EXPECT_LT(r.distortion.max, 1e6) << "case " << i;
   }
