@@ -4,8 +4,8 @@
 #
 #   bash bench/bench_cluster.sh        (under the build lock on a shared machine: nothing else running)
 #
-# Every replica has one worker (`--workers 1`): a replica is one core's worth, as on Kubernetes with a CPU
-# limit of 1 (docker/k8s), and the engine runs single-threaded (OpenBLAS is kept to one thread).
+# Every replica has one worker (`--workers 1`): a replica is one core's worth, as the CPU request of 1 in
+# docker/k8s reserves (its limit is 2), and the engine runs single-threaded (OpenBLAS is kept to one thread).
 # 1. What Redis adds to a job: the same 10k-triangle job (BENCH_GRID x BENCH_GRID grid, 2 (n-1)^2 triangles,
 #    an annulus sector wound 1.25 turns) on one process with the in-memory queue and on one replica with the
 #    shared queue, one job at a time, the two interleaved (A B, B A, ...) over BENCH_RUNS pairs so that the
