@@ -13,8 +13,8 @@
 #            Debian mirror with mmdebstrap and imported. Installs podman, runc and mmdebstrap (Debian
 #            packages) when missing.
 # Environment: LIPMAP_CONTAINER_ENGINE=docker|podman forces a path; LIPMAP_IMAGE (default lipmap:test).
-# Takes about 8 minutes on 2 cores (the image compiles lipmap). Prints the image size, the build time and
-# the run's log; exits non-zero when anything fails.
+# Takes 4 to 10 minutes on 2 cores (the image compiles lipmap: builds of 200 s to 9 min on different VMs).
+# Prints the image size, the build time and the run's log; exits non-zero when anything fails.
 set -euo pipefail
 cd "$(dirname "${BASH_SOURCE[0]}")/.."
 
