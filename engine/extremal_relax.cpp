@@ -695,6 +695,22 @@ ExtremalRelaxation relax_max_dilatation(const DiskMesh& source, const std::vecto
       if (out.max_after <= kept.max_after) map = std::move(simplified);
       else out = kept, removed = 0, flips = kept_flips;
     }
+    // The relaxation stops at its sweep and evaluation caps, not at a minimum: while the worst face is one a move
+    // can change, relaxing the relaxed map again lowers max K further (wiggly_strip / weak_fan 170.6 -> 149.9, the
+    // fixed faces' bound; mountain / weak_fan 254.6 -> 178.8 in three). Each round is kept only when it lowers max K
+    // by 1 %, so max K never rises.
+    for (int again = 0; again < options.relax_again && out.max_after > out.fixed_max * (1 + 1e-9); ++again) {
+      RefinedMap trial = map;
+      int trial_flips = 0;
+      ExtremalRelaxation next = relax_round(source, loop, trial, options, cancel, rest, t0, nullptr);
+      finish(next, trial, trial_flips);
+      if (!(next.max_after < 0.99 * out.max_after)) break;
+      map = std::move(trial);
+      next.sweeps += out.sweeps, next.moves += out.moves, next.interior_moves += out.interior_moves;
+      next.polished = next.polished || out.polished;
+      out = next;
+      flips += trial_flips;
+    }
     out.max_before = max_before;
     out.points_removed = removed;
     out.edge_flips = flips;

@@ -72,7 +72,8 @@ struct ExtremalRelaxation {
   int points_removed = 0;
   // Diagonals flipped inside refined faces to lower K (engine/refined_flips.h), over all rounds of the kept map.
   int edge_flips = 0;
-  // The interior polish (extremal_relax.cpp) was kept on the answer's last relaxation round.
+  // The interior polish (extremal_relax.cpp) was kept on the answer's last relaxation round or on one of the
+  // relaxations of it that followed (ExtremalRelaxOptions::relax_again).
   bool polished = false;
   // Vertex moves kept by the interior minimax after the polish (faces touching the boundary frozen; uv moves
   // and inserted points slid along their source edges), on the answer's last round; counted in moves too.
@@ -91,6 +92,9 @@ struct ExtremalRelaxOptions {
   // faces off the boundary; see extremal_relax.cpp).
   bool polish_interior = true;
   double time_budget_ms = 0;  // 0: none (besides the sweeps' cap and the cancel token)
+  // The relaxed map relaxed again, up to this many times, while its worst face is one a move can change and each
+  // time lowers max K by 1 % (the sweeps' and evaluations' caps stop a relaxation before a minimum).
+  int relax_again = 3;
   // The classification's full rotation index per boundary loop vertex (refine()'s rotation). Given, the
   // inserted points a descent would make removable are removed (simplify_again) and the relaxation goes on;
   // empty, such a descent is given up.
