@@ -13,6 +13,7 @@
 #include <Eigen/UmfPackSupport>
 
 #include "engine/error.h"
+#include "engine/multigrid.h"
 
 namespace lipmap {
 
@@ -399,12 +400,50 @@ namespace {
 using Cholesky = Eigen::CholmodSupernodalLLT<SpMat, Eigen::Lower>;
 using LU = Eigen::UmfPackLU<SpMat>;
 
-// Solve a system that should be SPD: CHOLMOD supernodal LLT, or UMFPACK when it is numerically not.
+// The multigrid solver as solve_checked sees it: counts its conjugate-gradient iterations, passes the token
+// into them, and notes whether every solve converged (relative residual within 1e-10; it stops at 1e-13).
+struct MultigridSolves {
+  const AggregationMultigrid& multigrid;
+  const CancelToken* cancel;
+  int& iterations;
+  mutable bool converged = true;
+  // Once a solve has not converged, every answer is zero: solve_checked then ends at once (its refinement
+  // sees no change) and solve_spd factors the system instead.
+  Rhs solve(const Rhs& b) const {
+    if (!converged) return Rhs::Zero(b.rows(), 2);
+    Rhs x = multigrid.solve(b, cancel);
+    iterations += multigrid.stats().iterations;
+    if (!(multigrid.stats().relative_residual <= 1e-10) || !x.allFinite()) {
+      converged = false;
+      return Rhs::Zero(b.rows(), 2);
+    }
+    return x;
+  }
+};
+
+// Solve a system that should be SPD: CHOLMOD supernodal LLT, or UMFPACK when it is numerically not. From
+// multigrid_min_unknowns unknowns on, conjugate gradients preconditioned by aggregation multigrid instead of
+// the factorization (engine/multigrid.h): its cost grows linearly, the factor's as n^1.5.
 Attempt solve_spd(const System& s, const Layout& lay, const std::vector<Triangle>& faces, std::vector<Point2>& uv,
-                  DiskMapSolution solution, const CancelToken* cancel, DiskMap& out, Timing& timing,
-                  double* factor_ms) {
+                  DiskMapSolution solution, int multigrid_min_unknowns, const CancelToken* cancel, DiskMap& out,
+                  Timing& timing, double* factor_ms) {
   use_single_threaded_solvers();
   auto t0 = Clock::now();
+  if (s.A.rows() >= multigrid_min_unknowns) {
+    AggregationMultigrid multigrid;
+    if (multigrid.compute(s.A)) {
+      ++out.factorizations;
+      if (solution == DiskMapSolution::primary) out.multigrid_levels = multigrid.stats().levels;
+      if (factor_ms) *factor_ms += ms_since(t0);
+      check_cancel(cancel);
+      const MultigridSolves solves{multigrid, cancel, out.solver_iterations};
+      Attempt attempt = solve_checked(solves, s, lay, faces, uv, solution, cancel, timing, out.refinement_steps);
+      if (solves.converged) return attempt;
+      // Not converged (a system far from what aggregation handles): factor it after all.
+      out.multigrid_levels = 0;
+      t0 = Clock::now();
+    }
+  }
   Cholesky llt;
   llt.cholmod().print = 0;  // a non-SPD matrix is handled below, not printed
   llt.compute(s.A);
@@ -572,7 +611,8 @@ DiskMap run(const DiskMapInput& in, const Layout& lay, Build build, bool fallbac
   std::vector<Point2> scratch = out.uv;
   std::vector<Attempt> attempts;
   attempts.push_back(
-      solve_spd(sys, lay, faces, scratch, DiskMapSolution::primary, cancel, out, primary_timing, &out.factor_ms));
+      solve_spd(sys, lay, faces, scratch, DiskMapSolution::primary, in.multigrid_min_unknowns, cancel, out,
+                primary_timing, &out.factor_ms));
   out.solve_ms = primary_timing.solve_ms;
   out.check_ms = primary_timing.check_ms;
   out.flipped_after_solve = attempts.back().first_flips;
@@ -600,7 +640,8 @@ DiskMap run(const DiskMapInput& in, const Layout& lay, Build build, bool fallbac
       check_cancel(cancel);
       const System st = assemble_uniform(lay, faces, out.uv);
       Timing t;
-      attempts.push_back(solve_spd(st, lay, faces, scratch, DiskMapSolution::tutte, cancel, out, t, nullptr));
+      attempts.push_back(solve_spd(st, lay, faces, scratch, DiskMapSolution::tutte, in.multigrid_min_unknowns,
+                                   cancel, out, t, nullptr));
     }
     fallback_ms += ms_since(tf);
   }

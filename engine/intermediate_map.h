@@ -59,6 +59,8 @@ const char* to_string(DiskMapSolution solution);
 
 inline constexpr int kMaxRefinementSteps = 6;
 
+inline constexpr int kMultigridMinUnknowns = 100000;
+
 struct DiskMapInput {
   const std::vector<Point3>* vertices = nullptr;
   const std::vector<Triangle>* faces = nullptr;       // counterclockwise seen with the interior on the left of the loop
@@ -66,6 +68,10 @@ struct DiskMapInput {
   // Where loop[k] goes; null: disk_boundary_point(k, n). Given, it must be a strictly convex polygon
   // (counterclockwise) for the positive-weight re-maps to be bijective (method extremal, paper 5.3).
   const std::vector<Point2>* boundary_positions = nullptr;
+  // From this many interior vertices on, the SPD systems are solved by multigrid-preconditioned conjugate
+  // gradients instead of a sparse Cholesky factor (engine/multigrid.h; docs/architecture.md has the
+  // measurements behind the default).
+  int multigrid_min_unknowns = kMultigridMinUnknowns;
 };
 
 struct DiskMap {
@@ -76,7 +82,9 @@ struct DiskMap {
   bool used_tutte_fallback = false;       // uv comes from the last-resort Tutte re-map (harmonic only)
   DiskMapSolution solution = DiskMapSolution::primary;
   int refinement_steps = 0;          // iterative-refinement steps applied, over all systems solved
-  int factorizations = 0;            // sparse factorizations done (1 unless a fallback ran)
+  int factorizations = 0;            // sparse factorizations (or multigrid set-ups) done (1 unless a fallback ran)
+  int multigrid_levels = 0;          // of the primary system's multigrid hierarchy (0: factored directly)
+  int solver_iterations = 0;         // conjugate-gradient iterations over all multigrid solves
   bool lu_for_primary = false;       // the SPD factorization failed numerically and LU solved the primary system
   int mean_value_rows_repaired = 0;  // mean-value rows whose 2D weights were unusable (3D or uniform weights used)
   int numerically_degenerate_faces = 0;  // faces with non-finite cotangents (uniform weights used for them)

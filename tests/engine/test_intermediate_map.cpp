@@ -26,6 +26,7 @@
 #include <CGAL/Gmpq.h>
 
 #include "engine/cancel.h"
+#include "engine/multigrid.h"
 #include "engine/error.h"
 #include "engine/intermediate_map.h"
 #include "engine/mesh_io.h"
@@ -403,6 +404,33 @@ TEST_P(IntermediateMapShared, BothMethodsMapBijectively) {
   }
 }
 
+// Above kMultigridMinUnknowns interior vertices the systems are solved by multigrid-preconditioned conjugate
+// gradients. Forced on every catalog mesh, the maps are as bijective as the factor's and the same map to
+// within 1e-9 (the solver stops at a relative residual of 1e-13; the factor's map is the reference here).
+TEST_P(IntermediateMapShared, MultigridSolvesGiveTheFactorsMap) {
+  const Mesh m = load_shared(GetParam());
+  const std::string name = GetParam().name();
+  for (MapMethod method : {MapMethod::tutte, MapMethod::harmonic}) {
+    const DiskMap direct = map(m, method);
+    DiskMapInput in{&m.v, &m.f, &m.loop};
+    in.multigrid_min_unknowns = 1;
+    const DiskMap iterative = map_to_disk(in, method);
+    expect_bijective_disk_map(m, iterative, label(name, method) + "/multigrid");
+    ASSERT_EQ(iterative.uv.size(), direct.uv.size());
+    double largest = 0;
+    for (std::size_t i = 0; i < direct.uv.size(); ++i)
+      largest = std::max({largest, std::fabs(iterative.uv[i].x - direct.uv[i].x),
+                          std::fabs(iterative.uv[i].y - direct.uv[i].y)});
+    EXPECT_LE(largest, 1e-9) << label(name, method);
+    // Up to coarse_size unknowns the hierarchy is one factored level and no iteration runs.
+    const bool iterated = iterative.interior_vertices > MultigridSettings{}.coarse_size;
+    EXPECT_EQ(iterative.multigrid_levels > 1, iterated) << label(name, method);
+    EXPECT_EQ(iterative.solver_iterations > 0, iterated) << label(name, method);
+    EXPECT_EQ(direct.multigrid_levels, 0) << label(name, method);
+    EXPECT_EQ(direct.solver_iterations, 0) << label(name, method);
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(IntermediateMap, IntermediateMapShared, ::testing::ValuesIn(testmeshes::disk_meshes()),
                          [](const auto& info) { return info.param.name(); });
 
@@ -533,6 +561,41 @@ TEST(IntermediateMap, CustomLaplacianEntryPointMatchesHarmonic) {
     EXPECT_NEAR(t.uv[i].x, u.uv[i].x, 1e-12);
     EXPECT_NEAR(t.uv[i].y, u.uv[i].y, 1e-12);
   }
+}
+
+// A system the multigrid solver cannot handle (here: indefinite with a positive diagonal; its coarse factor or
+// its iterations fail) is factored after all: the map is the one of the factorization path (LU, since the
+// supernodal LLT fails too), bit for bit, and no multigrid hierarchy is reported.
+TEST(IntermediateMap, IndefiniteSystemFallsBackFromMultigridToTheFactorization) {
+  const Mesh m = grid(80, 80);
+  Eigen::SparseMatrix<double> L = uniform_laplacian(static_cast<int>(m.v.size()), m.f);
+  // Every 7th interior edge of the mesh gets a positive off-diagonal entry larger than its endpoints'
+  // diagonal: x_i = 1, x_j = -1 then has a negative energy.
+  int changed = 0, edge = 0;
+  std::vector<char> boundary(m.v.size(), 0);
+  for (int v : m.loop) boundary[static_cast<std::size_t>(v)] = 1;
+  for (const Triangle& t : m.f) {
+    const int i = t[0], j = t[1];
+    if (boundary[static_cast<std::size_t>(i)] || boundary[static_cast<std::size_t>(j)] || i > j) continue;
+    if (++edge % 7) continue;
+    L.coeffRef(i, j) += 20.0;
+    L.coeffRef(j, i) += 20.0;
+    ++changed;
+  }
+  ASSERT_GT(changed, 100);
+  DiskMapInput in{&m.v, &m.f, &m.loop};
+  const DiskMap factored = map_to_disk_with_laplacian(in, L, false);
+  in.multigrid_min_unknowns = 1;
+  const DiskMap fallback = map_to_disk_with_laplacian(in, L, false);
+  EXPECT_TRUE(factored.lu_for_primary);
+  EXPECT_TRUE(fallback.lu_for_primary);
+  EXPECT_EQ(fallback.multigrid_levels, 0);
+  ASSERT_EQ(fallback.uv.size(), factored.uv.size());
+  int differing = 0;
+  for (std::size_t i = 0; i < factored.uv.size(); ++i)
+    if (fallback.uv[i].x != factored.uv[i].x || fallback.uv[i].y != factored.uv[i].y) ++differing;
+  EXPECT_EQ(differing, 0);
+  EXPECT_EQ(fallback.flipped, factored.flipped);
 }
 
 TEST(IntermediateMap, AllBoundaryMeshNeedsNoSolve) {
