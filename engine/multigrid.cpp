@@ -112,6 +112,34 @@ std::vector<int> breadth_first_order(const Matrix& A) {
   return order;
 }
 
+// B = A with rows and columns renumbered: B(k, l) = A(order[k], order[l]) (both triangles stored, rows sorted).
+Matrix permuted(const Matrix& A, const std::vector<int>& order) {
+  const int n = static_cast<int>(A.cols());
+  std::vector<int> position(static_cast<std::size_t>(n));
+  for (int k = 0; k < n; ++k) position[static_cast<std::size_t>(order[static_cast<std::size_t>(k)])] = k;
+  Matrix B(n, n);
+  B.resizeNonZeros(A.nonZeros());
+  int* outer = B.outerIndexPtr();
+  int* inner = B.innerIndexPtr();
+  double* value = B.valuePtr();
+  std::vector<std::pair<int, double>> column;
+  outer[0] = 0;
+  for (int k = 0; k < n; ++k) {
+    column.clear();
+    for (Matrix::InnerIterator it(A, order[static_cast<std::size_t>(k)]); it; ++it)
+      column.emplace_back(position[static_cast<std::size_t>(it.row())], it.value());
+    std::sort(column.begin(), column.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+    int at = outer[k];
+    for (const auto& [row, v] : column) {
+      inner[at] = row;
+      value[at] = v;
+      ++at;
+    }
+    outer[k + 1] = at;
+  }
+  return B;
+}
+
 // X * Y by Gustavson's row-merge: each column of the product gathers Y's column entries' columns of X in a
 // dense accumulator (linear in the flops, unlike a product that sorts or masks whole columns).
 Matrix multiply(const Matrix& X, const Matrix& Y) {
@@ -225,9 +253,21 @@ struct Compact {
   }
 };
 
+template <class Value>
+std::vector<int> diagonal_positions(const Compact<Value>& A) {
+  std::vector<int> out(static_cast<std::size_t>(A.columns()));
+  for (int c = 0; c < A.columns(); ++c) {
+    const auto b = A.inner.begin() + A.outer[static_cast<std::size_t>(c)];
+    const auto e = A.inner.begin() + A.outer[static_cast<std::size_t>(c) + 1];
+    out[static_cast<std::size_t>(c)] = static_cast<int>(std::lower_bound(b, e, c) - A.inner.begin());
+  }
+  return out;
+}
+
 struct AggregationMultigrid::Hierarchy {
   struct Level {
     Compact<float> A;           // this level's operator (full symmetric pattern: column i is row i)
+    std::vector<int> diagonal;  // where each column's diagonal entry is (its rows are sorted)
     std::vector<double> inv_diag;
     Compact<float> P;           // prolongation to this level from the next, by columns (gathers the restriction)
     Compact<float> R;           // its transpose by columns, i.e. P by rows (gathers the prolongation)
@@ -253,7 +293,7 @@ struct AggregationMultigrid::Hierarchy {
       const int i = forward ? s : n - 1 - s;
       double r0 = bv[2 * i], r1 = bv[2 * i + 1];
       if (from_zero) {
-        for (int k = outer[i]; k < outer[i + 1] && inner[k] < i; ++k) {
+        for (int k = outer[i]; k < l.diagonal[static_cast<std::size_t>(i)]; ++k) {
           r0 -= value[k] * xv[2 * inner[k]];
           r1 -= value[k] * xv[2 * inner[k] + 1];
         }
@@ -283,8 +323,27 @@ struct AggregationMultigrid::Hierarchy {
     z.resize(n, 2);
     for (int s = 0; s < sweeps; ++s) sweep(l, b, z, true, s == 0);
     l.r.resize(n, 2);
-    l.A.gather(z.data(), l.r.data(), false);  // A z (A symmetric)
-    l.r = b - l.r;
+    if (sweeps == 1) {
+      // After one forward sweep from zero, b_i - sum_{j <= i} a_ij z_j = 0 for every i: the residual is
+      // -sum_{j > i} a_ij z_j, half a pass over A instead of a whole one.
+      const int* inner = l.A.inner.data();
+      const float* value = l.A.value.data();
+      const double* zv = z.data();
+      double* rv = l.r.data();
+      const int* outer = l.A.outer.data();
+      for (int i = 0; i < n; ++i) {
+        double r0 = 0, r1 = 0;
+        for (int k = l.diagonal[static_cast<std::size_t>(i)] + 1; k < outer[i + 1]; ++k) {
+          r0 -= value[k] * zv[2 * inner[k]];
+          r1 -= value[k] * zv[2 * inner[k] + 1];
+        }
+        rv[2 * i] = r0;
+        rv[2 * i + 1] = r1;
+      }
+    } else {
+      l.A.gather(z.data(), l.r.data(), false);  // A z (A symmetric)
+      l.r = b - l.r;
+    }
     next.b.resize(next.size(), 2);
     l.P.gather(l.r.data(), next.b.data(), false);  // P^T r
     cycle(k + 1, next.b, next.x, sweeps);
@@ -300,14 +359,8 @@ bool AggregationMultigrid::compute(const Matrix& A) {
   hierarchy_ = std::make_unique<Hierarchy>();
   stats_ = MultigridStats{};
   Hierarchy& h = *hierarchy_;
-  Matrix current;
   h.order = breadth_first_order(A);
-  {
-    Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> perm(static_cast<int>(A.rows()));
-    for (int k = 0; k < static_cast<int>(A.rows()); ++k) perm.indices()[h.order[static_cast<std::size_t>(k)]] = k;
-    current = A.twistedBy(perm);
-  }
-  current.makeCompressed();
+  Matrix current = permuted(A, h.order);
   h.finest = Compact<double>(current);
   for (;;) {
     const int n = static_cast<int>(current.rows());
@@ -338,6 +391,7 @@ bool AggregationMultigrid::compute(const Matrix& A) {
     Matrix coarse = multiply(R, multiply(current, P));  // Galerkin: P^T A P
     coarse.makeCompressed();
     l.A = Compact<float>(current);
+    l.diagonal = diagonal_positions(l.A);
     l.P = Compact<float>(P);
     l.R = Compact<float>(R);
     current = std::move(coarse);
@@ -374,15 +428,47 @@ AggregationMultigrid::Block AggregationMultigrid::solve(const Block& b_in, const
   std::vector<Eigen::Array2d> history;  // relative residuals, to stop a column that no longer converges
   for (int it = 0; it < settings_.max_iterations; ++it) {
     check_cancel(cancel);
-    h.finest.gather(p.data(), q.data(), false);  // q = A p
-    const Eigen::Array2d pq = p.cwiseProduct(q).colwise().sum().transpose().array();
+    // The vector work of an iteration is fused into two passes (at 500k unknowns each pass over a vector
+    // is memory traffic): q = A p with p.q, then x += alpha p, r -= alpha q with |r|^2.
+    Eigen::Array2d pq = Eigen::Array2d::Zero();
+    {
+      const Compact<double>& A = h.finest;
+      const double* pv = p.data();
+      double* qv = q.data();
+      for (Eigen::Index j = 0; j < n; ++j) {
+        double s0 = 0, s1 = 0;
+        for (int k = A.outer[static_cast<std::size_t>(j)]; k < A.outer[static_cast<std::size_t>(j) + 1]; ++k) {
+          const double a = A.value[static_cast<std::size_t>(k)];
+          const std::size_t i = 2 * static_cast<std::size_t>(A.inner[static_cast<std::size_t>(k)]);
+          s0 += a * pv[i];
+          s1 += a * pv[i + 1];
+        }
+        qv[2 * j] = s0;
+        qv[2 * j + 1] = s1;
+        pq(0) += pv[2 * j] * s0;
+        pq(1) += pv[2 * j + 1] * s1;
+      }
+    }
     Eigen::Array2d alpha = Eigen::Array2d::Zero();
     for (int c = 0; c < 2; ++c)
       if (active(c) > 0 && pq(c) > 0 && std::isfinite(pq(c))) alpha(c) = rz(c) / pq(c);
-    x.noalias() += p * alpha.matrix().asDiagonal();
-    r.noalias() -= q * alpha.matrix().asDiagonal();
+    Eigen::Array2d rnorm = Eigen::Array2d::Zero();
+    {
+      const double* pv = p.data();
+      const double* qv = q.data();
+      double* xv = x.data();
+      double* rv = r.data();
+      for (Eigen::Index i = 0; i < 2 * n; i += 2) {
+        xv[i] += alpha(0) * pv[i];
+        xv[i + 1] += alpha(1) * pv[i + 1];
+        rv[i] -= alpha(0) * qv[i];
+        rv[i + 1] -= alpha(1) * qv[i + 1];
+        rnorm(0) += rv[i] * rv[i];
+        rnorm(1) += rv[i + 1] * rv[i + 1];
+      }
+    }
+    rnorm = rnorm.sqrt();
     ++stats_.iterations;
-    const Eigen::Array2d rnorm = r.colwise().norm().transpose().array();
     for (int c = 0; c < 2; ++c) {
       if (active(c) == 0) continue;
       relative(c) = rnorm(c) / bnorm(c);
@@ -399,7 +485,7 @@ AggregationMultigrid::Block AggregationMultigrid::solve(const Block& b_in, const
     Eigen::Array2d beta = Eigen::Array2d::Zero();
     for (int c = 0; c < 2; ++c)
       if (active(c) > 0 && rz(c) != 0) beta(c) = rz_next(c) / rz(c);
-    p = z + p * beta.matrix().asDiagonal();
+    p = z + p * beta.matrix().asDiagonal();  // one pass (Eigen fuses the expression)
     rz = rz_next;
   }
   for (int c = 0; c < 2; ++c)
