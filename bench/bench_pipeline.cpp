@@ -161,6 +161,7 @@ struct Row {
   static constexpr int kStages = 10;
   double stage[kStages] = {-1, -1, -1, -1, -1, -1, -1, -1, -1, -1};
   long long target_vertices = -1;
+  double mean_k = -1, max_k = -1;  // the answer's conformal distortion (of the last run: runs give the same map)
   long rss_kb = -1;
   std::string source_solution = "-", target_solution = "-";
 };
@@ -197,6 +198,8 @@ Row run_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs, double 
                                          s.refine,   s.verify,   s.quality,     s.untangle,          s.optimize};
       for (int i = 0; i < Row::kStages; ++i) stage[i].push_back(each[i]);
       row.target_vertices = res.target_mesh.vertices;
+      row.mean_k = res.distortion.mean;
+      row.max_k = res.distortion.max;
       row.inserted = static_cast<long long>(res.map.inserted.size());
       row.flipped_before = res.map.flipped_before_refinement;
       row.verdict = lipmap::to_string(res.classification.verdict);
@@ -281,7 +284,8 @@ std::string encode(const Row& r) {
     std::snprintf(buf, sizeof buf, "\t%.6f", v);
     line += buf;
   }
-  return line + "\t" + std::to_string(r.target_vertices);
+  std::snprintf(buf, sizeof buf, "\t%lld\t%.17g\t%.17g", r.target_vertices, r.mean_k, r.max_k);
+  return line + buf;
 }
 
 std::vector<std::string> split(const std::string& s) {
@@ -320,6 +324,10 @@ Row decode(const std::string& line) {
   r.untangle_optimize = std::atof(f[16].c_str());
   for (int i = 0; i < Row::kStages && 17 + i < static_cast<int>(f.size()); ++i) r.stage[i] = std::atof(f[17 + i].c_str());
   if (f.size() > 17 + Row::kStages) r.target_vertices = std::atoll(f[17 + Row::kStages].c_str());
+  if (f.size() > 19 + Row::kStages) {
+    r.mean_k = std::atof(f[18 + Row::kStages].c_str());
+    r.max_k = std::atof(f[19 + Row::kStages].c_str());
+  }
   return r;
 }
 
@@ -343,7 +351,8 @@ std::string cpu_model() {
 }  // namespace
 
 // One mesh's rows: CGAL's Tutte once, then lipmap on a circle and on the first certified self-overlapping
-// target. Prints the table lines (and, with stages, one line of per-stage times per row); returns the rows.
+// target. Prints the table lines (and, with stages, one line per row: the per-stage times and the answer's mean
+// and max conformal distortion K); returns the rows.
 struct MeshResult {
   double cgal_ms = -1;
   std::vector<std::pair<std::string, Row>> rows;  // (target kind, row)
@@ -393,11 +402,11 @@ MeshResult bench_mesh(const Mesh& m, int runs, double budget_s, bool stages) {
                 r.rss_kb / 1024.0, cell_ms(cgal_ms).c_str(), ratio);
     if (stages)
       std::printf("  stages ms: validate %s, classify %s, target_mesh %s (%lld vertices), intermediate_maps %s, "
-                  "compose %s, refine %s, verify %s, quality %s, untangle %s, optimize %s\n",
+                  "compose %s, refine %s, verify %s, quality %s, untangle %s, optimize %s; mean K %.4f, max K %.3f\n",
                   cell_ms(r.stage[0]).c_str(), cell_ms(r.stage[1]).c_str(), cell_ms(r.stage[2]).c_str(),
                   r.target_vertices, cell_ms(r.stage[3]).c_str(), cell_ms(r.stage[4]).c_str(),
                   cell_ms(r.stage[5]).c_str(), cell_ms(r.stage[6]).c_str(), cell_ms(r.stage[7]).c_str(),
-                  cell_ms(r.stage[8]).c_str(), cell_ms(r.stage[9]).c_str());
+                  cell_ms(r.stage[8]).c_str(), cell_ms(r.stage[9]).c_str(), r.mean_k, r.max_k);
     std::fflush(stdout);
   }
   if (!cgal_error.empty()) std::printf("%-26s CGAL Tutte failed: %s\n", name.c_str(), cgal_error.c_str());

@@ -369,8 +369,11 @@ bool AggregationMultigrid::compute(const Matrix& A) {
     if (!(diag.array() > 0).all() || !diag.allFinite()) return false;
     h.levels.emplace_back();
     Hierarchy::Level& l = h.levels.back();
-    l.inv_diag.assign(diag.data(), diag.data() + n);
-    for (double& d : l.inv_diag) d = 1.0 / d;
+    // The inverse of the diagonal as the sweeps see it, in float like the rest of the level's matrix: with the
+    // double diagonal the forward and backward sweeps would not be each other's adjoints (u.Mv - v.Mu ~ 3e-8).
+    l.inv_diag.resize(static_cast<std::size_t>(n));
+    for (int i = 0; i < n; ++i)
+      l.inv_diag[static_cast<std::size_t>(i)] = 1.0 / static_cast<double>(static_cast<float>(diag[i]));
     if (n <= settings_.coarse_size || h.levels.size() >= 25) break;
 
     const Matrix M = m_matrix_part(current);
@@ -389,6 +392,8 @@ bool AggregationMultigrid::compute(const Matrix& A) {
     const Matrix R = smoothed_restriction(M, m_diag.cwiseInverse(), agg, count, 4.0 / (3.0 * rho));
     const Matrix P = R.transpose();
     Matrix coarse = multiply(R, multiply(current, P));  // Galerkin: P^T A P
+    // Its two triangles are summed in different orders: made exactly symmetric, so that its float copy is too.
+    coarse = 0.5 * (coarse + Matrix(coarse.transpose()));
     coarse.makeCompressed();
     l.A = Compact<float>(current);
     l.diagonal = diagonal_positions(l.A);
@@ -401,6 +406,17 @@ bool AggregationMultigrid::compute(const Matrix& A) {
   h.coarse.cholmod().print = 0;
   h.coarse.compute(current);
   return h.coarse.info() == Eigen::Success;
+}
+
+AggregationMultigrid::Block AggregationMultigrid::cycle(const Block& b_in) const {
+  const Hierarchy& h = *hierarchy_;
+  const Eigen::Index n = b_in.rows();
+  Pairs r(n, 2), z(n, 2);
+  for (Eigen::Index k = 0; k < n; ++k) r.row(k) = b_in.row(h.order[static_cast<std::size_t>(k)]);
+  h.cycle(0, r, z, settings_.smoothing_sweeps);
+  Block out(n, 2);
+  for (Eigen::Index k = 0; k < n; ++k) out.row(h.order[static_cast<std::size_t>(k)]) = z.row(k);
+  return out;
 }
 
 AggregationMultigrid::Block AggregationMultigrid::solve(const Block& b_in, const CancelToken* cancel) const {

@@ -58,6 +58,9 @@ class AggregationMultigrid {
   bool compute(const Matrix& A);
   // Throws Cancelled (engine/cancel.h) between iterations when the token is cancelled.
   Block solve(const Block& b, const CancelToken* cancel = nullptr) const;
+  // One V-cycle from zero: a fixed symmetric positive definite approximation of A^-1 b (no iteration), for
+  // use as a preconditioner (the optimizer's L-BFGS). A one-level hierarchy solves exactly.
+  Block cycle(const Block& b) const;
   const MultigridStats& stats() const { return stats_; }
 
  private:

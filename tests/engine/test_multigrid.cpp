@@ -176,6 +176,30 @@ TEST(Multigrid, CotangentLaplaciansWithObtuseTriangles) {
   EXPECT_GE(with_positive_entries, 8);  // the generator does make the case this test is about
 }
 
+// cycle() is the optimizer's preconditioner: L-BFGS needs a fixed symmetric positive definite operator M, and
+// a useful one reduces the error of any guess (in A's energy norm: |A^-1 b - M b|_A < |A^-1 b|_A).
+TEST(Multigrid, OneCycleIsASymmetricPositiveDefiniteContraction) {
+  MultigridSettings settings;
+  settings.coarse_size = 60;
+  for (std::uint64_t seed = 1; seed <= 6; ++seed) {
+    const Matrix A = seed % 2 ? cotangent_laplacian(30 + static_cast<int>(seed), 25, seed)
+                              : grid_laplacian(35, 28 + static_cast<int>(seed), seed, 3.0);
+    AggregationMultigrid multigrid(settings);
+    ASSERT_TRUE(multigrid.compute(A));
+    ASSERT_GE(multigrid.stats().levels, 3);
+    const Block u = random_rhs(A.rows(), 10 * seed), v = random_rhs(A.rows(), 10 * seed + 1);
+    const Block Mu = multigrid.cycle(u), Mv = multigrid.cycle(v);
+    for (int c = 0; c < 2; ++c) {
+      const double uMv = u.col(c).dot(Mv.col(c)), vMu = v.col(c).dot(Mu.col(c));
+      EXPECT_NEAR(uMv, vMu, 1e-10 * std::fabs(uMv) + 1e-12) << "seed " << seed;
+      EXPECT_GT(u.col(c).dot(Mu.col(c)), 0) << "seed " << seed;
+      const Eigen::VectorXd x = Eigen::SimplicialLDLT<Matrix>(A).solve(u.col(c));
+      const Eigen::VectorXd e = x - Mu.col(c);
+      EXPECT_LT(e.dot(A * e), 0.5 * x.dot(A * x)) << "seed " << seed;
+    }
+  }
+}
+
 TEST(Multigrid, OneLevelWhenSmallEnoughToFactor) {
   const Matrix A = cotangent_laplacian(12, 9, 7);
   MultigridSettings settings;

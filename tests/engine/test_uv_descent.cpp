@@ -10,6 +10,8 @@
 //                          100 times |det J|) against the test's own explicit Hessian.
 //   PoweredMips            the energy with a power (method extremal's smooth max K) against the test's own K,
 //                          and its flip-free descent lowers the largest K.
+//   UvDescentLarge         from kMultigridMinUnknowns free vertices on (multigrid V-cycle as the preconditioner,
+//                          multigrid solve in harmonic()): the same promises on a 217k-triangle grid.
 #include <cmath>
 #include <random>
 #include <string>
@@ -19,6 +21,7 @@
 #include <gtest/gtest.h>
 
 #include "engine/detail/uv_descent.h"
+#include "engine/intermediate_map.h"
 #include "engine/validate.h"
 #include "tests/support/pipeline_cases.h"
 
@@ -416,6 +419,45 @@ TEST(PoweredMips, WithPerFaceBasesIsTheWeightedPNormAndItsDescentKeepsItsPromise
     }
   });
   ASSERT_GE(cases, 4);
+}
+
+}  // namespace
+}  // namespace lipmap
+
+namespace lipmap {
+namespace {
+
+TEST(UvDescentLarge, AboveTheMultigridThresholdTheDescentKeepsItsPromises) {
+  Start s = distorted_grid(330, 1);
+  for (unsigned seed = 2; seed <= 4 && pipelinecases::count_folded_by_checker(s.uv, s.mesh.faces) > 0; ++seed)
+    s = distorted_grid(330, seed);
+  ASSERT_EQ(pipelinecases::count_folded_by_checker(s.uv, s.mesh.faces), 0);
+  detail::UvDescent descent(s.mesh.vertices, s.mesh.faces, s.pinned, 1.0);
+  ASSERT_GE(descent.free_vertices(), kMultigridMinUnknowns);
+  detail::DescentSettings settings;
+  settings.energy = detail::UvEnergy::mips;
+  settings.max_iterations = 15;
+  settings.relative_tolerance = 0;
+  std::vector<Point2> uv = s.uv;
+  const detail::DescentOutcome out = descent.minimize(uv, settings);
+  EXPECT_EQ(pipelinecases::count_folded_by_checker(uv, s.mesh.faces), 0);
+  for (int v : s.mesh.boundary_loop) EXPECT_TRUE(uv[v] == s.uv[v]) << "boundary vertex " << v;
+  EXPECT_LT(out.energy_after, out.energy_before);
+  EXPECT_GE(out.iterations, 10);  // the preconditioned directions keep descending, not one lucky step
+
+  // harmonic() is one exact Newton step on the (quadratic) Dirichlet energy: from its own answer it moves
+  // nothing but rounding.
+  std::vector<Point2> once = s.uv;
+  descent.harmonic(once);
+  std::vector<Point2> twice = once;
+  descent.harmonic(twice);
+  double moved = 0, extent = 0;
+  for (std::size_t v = 0; v < once.size(); ++v) {
+    moved = std::max({moved, std::fabs(twice[v].x - once[v].x), std::fabs(twice[v].y - once[v].y)});
+    extent = std::max({extent, std::fabs(once[v].x - s.uv[v].x), std::fabs(once[v].y - s.uv[v].y)});
+  }
+  EXPECT_GT(extent, 1e-6);  // the first step did move the jittered start
+  EXPECT_LE(moved, 1e-9);
 }
 
 }  // namespace
