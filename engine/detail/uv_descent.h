@@ -108,6 +108,7 @@ private:
   std::unique_ptr<Impl> impl_;
 };
 
+// The two projected Hessians below are defined in engine/projected_hessian.cpp.
 // The Hessian of mips, |J|^2 / det J, with respect to J = [[a, b], [c, d]] (det J > 0) as the row-major 4-vector
 // (a, b, c, d), projected onto the positive semi-definite matrices (its negative eigenvalues set to 0): a
 // row-major 4 x 4 matrix. Closed form from J = U diag(s1, s2) W, s1 >= s2 > 0 (the analytic eigensystem of an
