@@ -140,6 +140,17 @@ Matrix permuted(const Matrix& A, const std::vector<int>& order) {
   return B;
 }
 
+// A compressed column-major matrix from its arrays (rows sorted within each column).
+Matrix compressed(int rows, int cols, const std::vector<int>& outer, const std::vector<int>& inner,
+                  const std::vector<double>& value) {
+  Matrix out(rows, cols);
+  out.resizeNonZeros(static_cast<Eigen::Index>(inner.size()));
+  std::copy(outer.begin(), outer.end(), out.outerIndexPtr());
+  std::copy(inner.begin(), inner.end(), out.innerIndexPtr());
+  std::copy(value.begin(), value.end(), out.valuePtr());
+  return out;
+}
+
 // X * Y by Gustavson's row-merge: each column of the product gathers Y's column entries' columns of X in a
 // dense accumulator (linear in the flops, unlike a product that sorts or masks whole columns).
 Matrix multiply(const Matrix& X, const Matrix& Y) {
@@ -171,12 +182,7 @@ Matrix multiply(const Matrix& X, const Matrix& Y) {
     }
     outer[static_cast<std::size_t>(j) + 1] = static_cast<int>(inner.size());
   }
-  Matrix out(rows, cols);
-  out.resizeNonZeros(static_cast<Eigen::Index>(inner.size()));
-  std::copy(outer.begin(), outer.end(), out.outerIndexPtr());
-  std::copy(inner.begin(), inner.end(), out.innerIndexPtr());
-  std::copy(value.begin(), value.end(), out.valuePtr());
-  return out;
+  return compressed(rows, cols, outer, inner, value);
 }
 
 // R = P^T for the smoothed prolongation P = (I - omega D^-1 A) P0: column i of R is row i of P, which has
@@ -205,12 +211,7 @@ Matrix smoothed_restriction(const Matrix& A, const Eigen::VectorXd& inv_diag, co
     }
     outer[static_cast<std::size_t>(i) + 1] = static_cast<int>(inner.size());
   }
-  Matrix R(count, n);
-  R.resizeNonZeros(static_cast<Eigen::Index>(inner.size()));
-  std::copy(outer.begin(), outer.end(), R.outerIndexPtr());
-  std::copy(inner.begin(), inner.end(), R.innerIndexPtr());
-  std::copy(value.begin(), value.end(), R.valuePtr());
-  return R;
+  return compressed(count, n, outer, inner, value);
 }
 
 }  // namespace

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <random>
 #include <string>
 #include <vector>
@@ -210,12 +211,20 @@ TEST(Multigrid, OneLevelWhenSmallEnoughToFactor) {
   expect_solves(A, random_rhs(A.rows(), 3), settings, "one level");
 }
 
-TEST(Multigrid, ZeroAndNonFiniteRightHandSides) {
-  const Matrix A = grid_laplacian(30, 30, 5, 2.0);
+// A hierarchy of several levels on a small matrix.
+std::unique_ptr<AggregationMultigrid> built(const Matrix& A) {
   MultigridSettings settings;
   settings.coarse_size = 50;
-  AggregationMultigrid multigrid(settings);
-  ASSERT_TRUE(multigrid.compute(A));
+  auto multigrid = std::make_unique<AggregationMultigrid>(settings);
+  EXPECT_TRUE(multigrid->compute(A));
+  EXPECT_GE(multigrid->stats().levels, 2);
+  return multigrid;
+}
+
+TEST(Multigrid, ZeroAndNonFiniteRightHandSides) {
+  const Matrix A = grid_laplacian(30, 30, 5, 2.0);
+  const std::unique_ptr<AggregationMultigrid> owner = built(A);
+  const AggregationMultigrid& multigrid = *owner;
   EXPECT_TRUE(multigrid.solve(Block::Zero(A.rows(), 2)).isZero(0.0));
   Block one = random_rhs(A.rows(), 9);
   one.col(1).setZero();
@@ -240,13 +249,10 @@ TEST(Multigrid, RefusesAMatrixWithoutAPositiveDiagonal) {
 
 TEST(Multigrid, CancelledTokenStopsTheIterations) {
   const Matrix A = grid_laplacian(40, 40, 2, 1.0);
-  MultigridSettings settings;
-  settings.coarse_size = 50;
-  AggregationMultigrid multigrid(settings);
-  ASSERT_TRUE(multigrid.compute(A));
+  const std::unique_ptr<AggregationMultigrid> multigrid = built(A);
   CancelToken token;
   token.cancel();
-  EXPECT_THROW(multigrid.solve(random_rhs(A.rows(), 1), &token), Cancelled);
+  EXPECT_THROW(multigrid->solve(random_rhs(A.rows(), 1), &token), Cancelled);
 }
 
 }  // namespace
