@@ -401,22 +401,25 @@ using Cholesky = Eigen::CholmodSupernodalLLT<SpMat, Eigen::Lower>;
 using LU = Eigen::UmfPackLU<SpMat>;
 
 // The multigrid solver as solve_checked sees it: counts its conjugate-gradient iterations, passes the token
-// into them, and notes whether every solve converged (relative residual within 1e-10; it stops at 1e-13).
+// into them, and notes whether the first solve converged (relative residual within 1e-10; it stops at 1e-13).
+// A solve that did not converge answers zero: after the first, solve_checked then ends at once (its refinement
+// sees no change) and solve_spd factors the system instead; a refinement step's correction that did not
+// converge ends the refinement and keeps the iterate.
 struct MultigridSolves {
   const AggregationMultigrid& multigrid;
   const CancelToken* cancel;
   int& iterations;
   mutable bool converged = true;
-  // Once a solve has not converged, every answer is zero: solve_checked then ends at once (its refinement
-  // sees no change) and solve_spd factors the system instead.
+  mutable int solves = 0;
   Rhs solve(const Rhs& b) const {
     if (!converged) return Rhs::Zero(b.rows(), 2);
     Rhs x = multigrid.solve(b, cancel);
     iterations += multigrid.stats().iterations;
     if (!(multigrid.stats().relative_residual <= 1e-10) || !x.allFinite()) {
-      converged = false;
-      return Rhs::Zero(b.rows(), 2);
+      if (solves == 0) converged = false;
+      x.setZero();
     }
+    ++solves;
     return x;
   }
 };
@@ -440,7 +443,7 @@ Attempt solve_spd(const System& s, const Layout& lay, const std::vector<Triangle
       Attempt attempt = solve_checked(solves, s, lay, faces, uv, solution, cancel, timing, out.refinement_steps);
       if (solves.converged) return attempt;
       // Not converged (a system far from what aggregation handles): factor it after all.
-      out.multigrid_levels = 0;
+      if (solution == DiskMapSolution::primary) out.multigrid_levels = 0;
       t0 = Clock::now();
     }
   }

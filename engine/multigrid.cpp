@@ -87,6 +87,7 @@ Matrix m_matrix_part(const Matrix& A) {
     }
     if (diagonal) *diagonal += lumped;
   }
+  M.prune([](Eigen::Index, Eigen::Index, double v) { return v != 0.0; });  // the moved entries' zeros
   return M;
 }
 
@@ -221,8 +222,9 @@ Matrix smoothed_restriction(const Matrix& A, const Eigen::VectorXd& inv_diag, co
 // are bound by memory traffic.
 using Pairs = Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor>;
 
-// A level's operator or transfer in compressed columns with float values: the preconditioner only needs to
-// be close to A's inverse (8 bytes an entry instead of 12).
+// A level's operator (float values: the preconditioner only needs to be close to A's inverse, and 8 bytes an
+// entry instead of 12 is less memory traffic) or transfer (double: scaled to the coarse unit diagonals, its
+// entries may exceed float's range) in compressed columns.
 template <class Value>
 struct Compact {
   std::vector<int> outer, inner;
@@ -270,12 +272,14 @@ struct AggregationMultigrid::Hierarchy {
     Compact<float> A;           // this level's operator (full symmetric pattern: column i is row i)
     std::vector<int> diagonal;  // where each column's diagonal entry is (its rows are sorted)
     std::vector<double> inv_diag;
-    Compact<float> P;           // prolongation to this level from the next, by columns (gathers the restriction)
-    Compact<float> R;           // its transpose by columns, i.e. P by rows (gathers the prolongation)
+    Compact<double> P;          // prolongation to this level from the next, by columns (gathers the restriction)
+    Compact<double> R;          // its transpose by columns, i.e. P by rows (gathers the prolongation)
     mutable Pairs x, r, b;      // scratch of one V-cycle (b, x: the coarse level's right-hand side and answer)
     int size() const { return A.columns(); }
   };
   std::vector<int> order;       // unknown k of the levels is unknown order[k] of the system
+  Eigen::VectorXd scale;        // S: the levels are built for S A S (in the levels' order)
+  mutable Pairs scaled;         // S r, the cycle's right-hand side
   Compact<double> finest;       // the system itself (reordered), in double, for the conjugate gradients
   std::vector<Level> levels;    // levels.back() is factored
   Eigen::CholmodSupernodalLLT<Matrix, Eigen::Lower> coarse;
@@ -351,9 +355,20 @@ struct AggregationMultigrid::Hierarchy {
     l.R.gather(next.x.data(), z.data(), true);  // z += P x_c
     for (int s = 0; s < sweeps; ++s) sweep(l, b, z, false, false);
   }
+
+  // z = S V(S r): the V-cycle of S A S, an approximation of A^-1 (exact with one level: the factor's solve).
+  void precondition(const Pairs& r, Pairs& z, int sweeps) const {
+    const Eigen::Index n = r.rows();
+    scaled.resize(n, 2);
+    for (Eigen::Index i = 0; i < n; ++i) scaled.row(i) = r.row(i) * scale[i];
+    cycle(0, scaled, z, sweeps);
+    for (Eigen::Index i = 0; i < n; ++i) z.row(i) *= scale[i];
+  }
 };
 
-AggregationMultigrid::AggregationMultigrid(MultigridSettings settings) : settings_(settings) {}
+AggregationMultigrid::AggregationMultigrid(MultigridSettings settings) : settings_(settings) {
+  settings_.smoothing_sweeps = std::max(1, settings_.smoothing_sweeps);  // none: P B_c P^T alone is singular
+}
 AggregationMultigrid::~AggregationMultigrid() = default;
 
 bool AggregationMultigrid::compute(const Matrix& A) {
@@ -363,6 +378,16 @@ bool AggregationMultigrid::compute(const Matrix& A) {
   h.order = breadth_first_order(A);
   Matrix current = permuted(A, h.order);
   h.finest = Compact<double>(current);
+  // The hierarchy is built for S A S with S = diag(a_ii^-1/2): unit diagonal, off-diagonal entries within
+  // [-1, 1] (A is SPD), so that its float copies neither overflow nor lose a row to underflow whatever A's
+  // range (the optimizer's powered-mips weights span 1e+-80 and more); the cycle is scaled back (precondition).
+  {
+    const Eigen::VectorXd diag = current.diagonal();
+    if (!(diag.array() > 0).all() || !diag.allFinite()) return false;
+    h.scale = diag.cwiseSqrt().cwiseInverse();
+    for (int c = 0; c < current.outerSize(); ++c)
+      for (Matrix::InnerIterator it(current, c); it; ++it) it.valueRef() *= h.scale[it.row()] * h.scale[c];
+  }
   for (;;) {
     const int n = static_cast<int>(current.rows());
     stats_.operator_nonzeros += current.nonZeros();
@@ -390,16 +415,24 @@ bool AggregationMultigrid::compute(const Matrix& A) {
       for (Matrix::InnerIterator it(M, c); it; ++it) row += std::abs(it.value());
       rho = std::max(rho, row / m_diag[c]);
     }
-    const Matrix R = smoothed_restriction(M, m_diag.cwiseInverse(), agg, count, 4.0 / (3.0 * rho));
-    const Matrix P = R.transpose();
-    Matrix coarse = multiply(R, multiply(current, P));  // Galerkin: P^T A P
+    Matrix R = smoothed_restriction(M, m_diag.cwiseInverse(), agg, count, 4.0 / (3.0 * rho));
+    Matrix coarse = multiply(R, multiply(current, Matrix(R.transpose())));  // Galerkin: P^T A P
     // Its two triangles are summed in different orders: made exactly symmetric, so that its float copy is too.
     coarse = 0.5 * (coarse + Matrix(coarse.transpose()));
+    // Scaled to a unit diagonal as the finest level is (S_c P^T A P S_c with P's columns scaled by S_c): an
+    // aggregate joined to the rest by tiny weights only has a tiny diagonal entry, which float would lose.
+    const Eigen::VectorXd coarse_diag = coarse.diagonal();
+    if (!(coarse_diag.array() > 0).all() || !coarse_diag.allFinite()) return false;
+    const Eigen::VectorXd coarse_scale = coarse_diag.cwiseSqrt().cwiseInverse();
+    for (int c = 0; c < coarse.outerSize(); ++c)
+      for (Matrix::InnerIterator it(coarse, c); it; ++it) it.valueRef() *= coarse_scale[it.row()] * coarse_scale[c];
+    for (int c = 0; c < R.outerSize(); ++c)
+      for (Matrix::InnerIterator it(R, c); it; ++it) it.valueRef() *= coarse_scale[it.row()];
     coarse.makeCompressed();
     l.A = Compact<float>(current);
     l.diagonal = diagonal_positions(l.A);
-    l.P = Compact<float>(P);
-    l.R = Compact<float>(R);
+    l.P = Compact<double>(Matrix(R.transpose()));
+    l.R = Compact<double>(R);
     current = std::move(coarse);
   }
   stats_.levels = static_cast<int>(h.levels.size());
@@ -414,7 +447,7 @@ AggregationMultigrid::Block AggregationMultigrid::cycle(const Block& b_in) const
   const Eigen::Index n = b_in.rows();
   Pairs r(n, 2), z(n, 2);
   for (Eigen::Index k = 0; k < n; ++k) r.row(k) = b_in.row(h.order[static_cast<std::size_t>(k)]);
-  h.cycle(0, r, z, settings_.smoothing_sweeps);
+  h.precondition(r, z, settings_.smoothing_sweeps);
   Block out(n, 2);
   for (Eigen::Index k = 0; k < n; ++k) out.row(h.order[static_cast<std::size_t>(k)]) = z.row(k);
   return out;
@@ -425,8 +458,8 @@ AggregationMultigrid::Block AggregationMultigrid::solve(const Block& b_in, const
   const Eigen::Index n = b_in.rows();
   stats_.iterations = 0;
   stats_.relative_residual = 0;
-  const Eigen::Array2d bnorm = b_in.colwise().norm().transpose().array();
-  if (!bnorm.allFinite()) return Block::Constant(n, 2, std::numeric_limits<double>::quiet_NaN());
+  if (!b_in.allFinite()) return Block::Constant(n, 2, std::numeric_limits<double>::quiet_NaN());
+  const Eigen::Array2d bnorm = b_in.colwise().stableNorm().transpose().array();
   Pairs r(n, 2), z(n, 2), q(n, 2);
   for (Eigen::Index k = 0; k < n; ++k) r.row(k) = b_in.row(h.order[static_cast<std::size_t>(k)]);
   auto in_input_order = [&](const Pairs& x) {
@@ -434,11 +467,14 @@ AggregationMultigrid::Block AggregationMultigrid::solve(const Block& b_in, const
     for (Eigen::Index k = 0; k < n; ++k) out.row(h.order[static_cast<std::size_t>(k)]) = x.row(k);
     return out;
   };
-  if (h.levels.size() == 1) return in_input_order(h.coarse.solve(r));  // small enough to factor whole
+  if (h.levels.size() == 1) {  // small enough to factor whole
+    h.precondition(r, z, settings_.smoothing_sweeps);
+    return in_input_order(z);
+  }
   Pairs x = Pairs::Zero(n, 2);
   Eigen::Array2d active(bnorm(0) > 0 ? 1.0 : 0.0, bnorm(1) > 0 ? 1.0 : 0.0);
   if ((active == 0).all()) return Block::Zero(n, 2);
-  h.cycle(0, r, z, settings_.smoothing_sweeps);
+  h.precondition(r, z, settings_.smoothing_sweeps);
   Pairs p = z;
   Eigen::Array2d rz = r.cwiseProduct(z).colwise().sum().transpose().array();
   Eigen::Array2d relative(1.0, 1.0);
@@ -497,7 +533,7 @@ AggregationMultigrid::Block AggregationMultigrid::solve(const Block& b_in, const
     }
     history.push_back(relative);
     if ((active == 0).all()) break;
-    h.cycle(0, r, z, settings_.smoothing_sweeps);
+    h.precondition(r, z, settings_.smoothing_sweeps);
     const Eigen::Array2d rz_next = r.cwiseProduct(z).colwise().sum().transpose().array();
     Eigen::Array2d beta = Eigen::Array2d::Zero();
     for (int c = 0; c < 2; ++c)

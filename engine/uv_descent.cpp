@@ -157,9 +157,10 @@ struct UvDescent::Impl {
   bool factored = false;  // laplacian_factor holds the numeric factor of laplacian's current values
   // From kMultigridMinUnknowns free vertices on (the intermediate maps' threshold) the Laplacian is not
   // factored: the preconditioner is one multigrid V-cycle (engine/multigrid.h), an SPD approximation of its
-  // inverse at linear cost (at 1M triangles a factor cost 1.3 s and each back-solve 110 ms, the cycle ~20 ms).
+  // inverse at linear cost (at 1M triangles a factor cost 1.3 s and each back-solve 110 ms, the cycle ~20 ms);
+  // values whose hierarchy cannot be built (weights over a hundred decades) are factored after all.
   bool use_multigrid = false;
-  std::unique_ptr<AggregationMultigrid> multigrid;
+  std::unique_ptr<AggregationMultigrid> multigrid;  // set: the current values' hierarchy (else the factor)
 
   Impl(const std::vector<Point3>& vertices, const std::vector<Triangle>& f, const std::vector<char>& pinned,
        double uv_area)
@@ -239,15 +240,9 @@ struct UvDescent::Impl {
     laplacian.setFromTriplets(entries.begin(), entries.end());
     laplacian.makeCompressed();
     rest_values.assign(laplacian.valuePtr(), laplacian.valuePtr() + laplacian.nonZeros());
-    if (n >= kMultigridMinUnknowns) {
-      use_multigrid = true;
-      analyzed = true;  // nothing to analyse: the hierarchy is built from the values (factor_values)
-      return;
-    }
     laplacian_factor.cholmod().print = 0;
-    use_single_threaded_solvers();
-    laplacian_factor.analyzePattern(laplacian);
-    analyzed = laplacian_factor.info() == Eigen::Success;
+    use_multigrid = n >= kMultigridMinUnknowns;
+    analyzed = use_multigrid || analyze_pattern();  // multigrid: the pattern is analysed only if needed
   }
 
   // ---- the preconditioner in the metric of the current map (mips, symmetric Dirichlet) ----
@@ -303,14 +298,26 @@ struct UvDescent::Impl {
     if (!factored) restore_rest_laplacian();
   }
 
-  // The numeric factor of laplacian's current values, or the multigrid hierarchy built from them.
+  bool pattern_analyzed = false;
+  bool analyze_pattern() {
+    use_single_threaded_solvers();
+    laplacian_factor.analyzePattern(laplacian);
+    pattern_analyzed = true;
+    return laplacian_factor.info() == Eigen::Success;
+  }
+
+  // The multigrid hierarchy of laplacian's current values, or their numeric factor.
   bool factor_values() {
     use_single_threaded_solvers();
+    multigrid.reset();
     if (use_multigrid) {
-      const SpMat full = laplacian.selfadjointView<Eigen::Lower>();
-      multigrid = std::make_unique<AggregationMultigrid>();
-      return multigrid->compute(full);
+      auto built = std::make_unique<AggregationMultigrid>();
+      if (built->compute(SpMat(laplacian.selfadjointView<Eigen::Lower>()))) {
+        multigrid = std::move(built);
+        return true;
+      }
     }
+    if (!pattern_analyzed && !analyze_pattern()) return false;
     laplacian_factor.factorize(laplacian);
     return laplacian_factor.info() == Eigen::Success;
   }
@@ -324,7 +331,7 @@ struct UvDescent::Impl {
   }
 
   Vec2s precondition(const Vec2s& g) const {
-    if (factored) return use_multigrid ? Vec2s(multigrid->cycle(g)) : Vec2s(laplacian_factor.solve(g));
+    if (factored) return multigrid ? Vec2s(multigrid->cycle(g)) : Vec2s(laplacian_factor.solve(g));
     // Jacobi when the factorization failed (it should not: the matrix is SPD).
     Vec2s out = g;
     for (int i = 0; i < out.rows(); ++i) {
@@ -561,7 +568,9 @@ void UvDescent::harmonic(std::vector<Point2>& uv) {
     if (i0 >= 0) { grad(i0, 0) -= w * (dD.a + dD.b); grad(i0, 1) -= w * (dD.c + dD.d); }
   }
   // grad holds half the gradient, L is half the Hessian: the step is -L^-1 grad.
-  const Vec2s step = m.use_multigrid ? Vec2s(m.multigrid->solve(grad)) : Vec2s(m.laplacian_factor.solve(grad));
+  const Vec2s step = m.multigrid ? Vec2s(m.multigrid->solve(grad)) : Vec2s(m.laplacian_factor.solve(grad));
+  // A multigrid solve that did not converge leaves uv as it is (the factor's solve is exact).
+  if (m.multigrid && !(m.multigrid->stats().relative_residual <= 1e-10 && step.allFinite())) return;
   m.apply(std::vector<Point2>(uv), step, -1.0, uv);
 }
 

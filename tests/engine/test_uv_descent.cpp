@@ -445,6 +445,32 @@ TEST(UvDescentLarge, AboveTheMultigridThresholdTheDescentKeepsItsPromises) {
   EXPECT_LT(out.energy_after, out.energy_before);
   EXPECT_GE(out.iterations, 10);  // the preconditioned directions keep descending, not one lucky step
 
+  // A high power of mips (method extremal's smooth max K runs p up to 256): the reweighted Laplacian's weights
+  // (mips / 2b)^(p - 1) span tens of decades, beyond float's range; the preconditioner must stay usable (a
+  // hierarchy built for the scaled matrix, or the factor when none can be built), never NaN.
+  {
+    detail::UvDescent powered(s.mesh.vertices, s.mesh.faces, s.pinned, 1.0);
+    detail::DescentSettings p = settings;
+    p.power = 64;
+    // The base at the start's largest (K + 1/K) / 2 (= mips / 2), as method extremal sets it: every face's term
+    // at most 1, the smallest ones (and their weights) near 1e-60 and below.
+    double base = 1;
+    for (const Triangle& t : s.mesh.faces) {
+      const double k = triangle_k(s.mesh.vertices[t[0]], s.mesh.vertices[t[1]], s.mesh.vertices[t[2]], s.uv[t[0]],
+                                  s.uv[t[1]], s.uv[t[2]]);
+      base = std::max(base, 0.5 * (k + 1 / k));
+    }
+    p.power_base = 1.01 * base;
+    std::printf("[ large ] base %g, smallest weight about %g\n", base, std::pow(1 / p.power_base, 63));
+    p.max_iterations = 8;
+    std::vector<Point2> q = s.uv;
+    const detail::DescentOutcome o = powered.minimize(q, p);
+    EXPECT_EQ(pipelinecases::count_folded_by_checker(q, s.mesh.faces), 0);
+    EXPECT_TRUE(std::isfinite(o.energy_after));
+    EXPECT_LT(o.energy_after, o.energy_before);
+    EXPECT_GE(o.iterations, 4);
+  }
+
   // harmonic() is one exact Newton step on the (quadratic) Dirichlet energy: from its own answer it moves
   // nothing but rounding.
   std::vector<Point2> once = s.uv;
