@@ -186,10 +186,11 @@ Matrix multiply(const Matrix& X, const Matrix& Y) {
   return compressed(rows, cols, outer, inner, value);
 }
 
-// R = P^T for the smoothed prolongation P = (I - omega D^-1 A) P0: column i of R is row i of P, which has
-// 1 - omega at i's own aggregate (plus) and -omega a_ij / a_ii at the aggregate of each neighbour j.
+// R = P^T for the smoothed prolongation P = (I - omega D^-1 A) P0, P0(i, agg[i]) = tentative[i]: column i of
+// R is row i of P, which has tentative[i] (1 - omega a_ii / a_ii) at i's own aggregate and -omega a_ij / a_ii
+// tentative[j] at the aggregate of each neighbour j.
 Matrix smoothed_restriction(const Matrix& A, const Eigen::VectorXd& inv_diag, const std::vector<int>& agg,
-                            int count, double omega) {
+                            const Eigen::VectorXd& tentative, int count, double omega) {
   const int n = static_cast<int>(A.rows());
   std::vector<int> outer(static_cast<std::size_t>(n) + 1, 0);
   std::vector<int> inner;
@@ -199,9 +200,11 @@ Matrix smoothed_restriction(const Matrix& A, const Eigen::VectorXd& inv_diag, co
   std::vector<std::pair<int, double>> row;
   for (int i = 0; i < n; ++i) {
     row.clear();
-    row.emplace_back(agg[static_cast<std::size_t>(i)], 1.0);
-    for (Matrix::InnerIterator it(A, i); it; ++it)
-      row.emplace_back(agg[static_cast<std::size_t>(it.row())], -omega * it.value() * inv_diag[i]);
+    row.emplace_back(agg[static_cast<std::size_t>(i)], tentative[i]);
+    for (Matrix::InnerIterator it(A, i); it; ++it) {
+      const auto j = it.row();
+      row.emplace_back(agg[static_cast<std::size_t>(j)], -omega * it.value() * inv_diag[i] * tentative[j]);
+    }
     std::sort(row.begin(), row.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     for (std::size_t k = 0; k < row.size();) {
       double sum = 0;
@@ -378,6 +381,7 @@ bool AggregationMultigrid::compute(const Matrix& A) {
   h.order = breadth_first_order(A);
   Matrix current = permuted(A, h.order);
   h.finest = Compact<double>(current);
+  Eigen::VectorXd near_null;  // the level's near null space (a Laplacian's constants), P0's values
   // The hierarchy is built for S A S with S = diag(a_ii^-1/2): unit diagonal, off-diagonal entries within
   // [-1, 1] (A is SPD), so that its float copies neither overflow nor lose a row to underflow whatever A's
   // range (the optimizer's powered-mips weights span 1e+-80 and more); the cycle is scaled back (precondition).
@@ -387,6 +391,7 @@ bool AggregationMultigrid::compute(const Matrix& A) {
     h.scale = diag.cwiseSqrt().cwiseInverse();
     for (int c = 0; c < current.outerSize(); ++c)
       for (Matrix::InnerIterator it(current, c); it; ++it) it.valueRef() *= h.scale[it.row()] * h.scale[c];
+    near_null = diag.cwiseSqrt();  // A's constant vector in the scaled unknowns: S^-1 1
   }
   for (;;) {
     const int n = static_cast<int>(current.rows());
@@ -415,7 +420,14 @@ bool AggregationMultigrid::compute(const Matrix& A) {
       for (Matrix::InnerIterator it(M, c); it; ++it) row += std::abs(it.value());
       rho = std::max(rho, row / m_diag[c]);
     }
-    Matrix R = smoothed_restriction(M, m_diag.cwiseInverse(), agg, count, 4.0 / (3.0 * rho));
+    // The tentative prolongation holds the near null vector on each aggregate, normalized (Vanek et al. 3.2);
+    // the coarse level's near null vector is then the aggregates' norms.
+    Eigen::VectorXd norm = Eigen::VectorXd::Zero(count);
+    for (int i = 0; i < n; ++i) norm[agg[static_cast<std::size_t>(i)]] += near_null[i] * near_null[i];
+    norm = norm.cwiseSqrt();
+    Eigen::VectorXd tentative(n);
+    for (int i = 0; i < n; ++i) tentative[i] = near_null[i] / norm[agg[static_cast<std::size_t>(i)]];
+    Matrix R = smoothed_restriction(M, m_diag.cwiseInverse(), agg, tentative, count, 4.0 / (3.0 * rho));
     Matrix coarse = multiply(R, multiply(current, Matrix(R.transpose())));  // Galerkin: P^T A P
     // Its two triangles are summed in different orders: made exactly symmetric, so that its float copy is too.
     coarse = 0.5 * (coarse + Matrix(coarse.transpose()));
@@ -428,6 +440,7 @@ bool AggregationMultigrid::compute(const Matrix& A) {
       for (Matrix::InnerIterator it(coarse, c); it; ++it) it.valueRef() *= coarse_scale[it.row()] * coarse_scale[c];
     for (int c = 0; c < R.outerSize(); ++c)
       for (Matrix::InnerIterator it(R, c); it; ++it) it.valueRef() *= coarse_scale[it.row()];
+    near_null = norm.cwiseQuotient(coarse_scale);  // in the coarse level's scaled unknowns
     coarse.makeCompressed();
     l.A = Compact<float>(current);
     l.diagonal = diagonal_positions(l.A);

@@ -4,14 +4,14 @@
 //
 // Why: a sparse Cholesky factor of a 2D mesh's Laplacian costs n^1.5 flops and fills n log n entries, so the
 // maps of a 1M-triangle mesh cost 6-8x those of a 250k one; a cycle costs a few passes over each level's
-// matrix, and with smoothed aggregation the number of cycles hardly grows with n (bench_ordering: 21, 23, 23
+// matrix, and with smoothed aggregation the number of cycles hardly grows with n (bench_ordering: 22, 23, 25
 // cycles at 31k, 126k, 506k unknowns). The coarsest level (at most MultigridSettings::coarse_size unknowns) is
 // factored with CHOLMOD. The maps use it from kMultigridMinUnknowns (engine/intermediate_map.h) on.
 // How: the unknowns are put in breadth-first (Cuthill-McKee) order; aggregates and the smoothed prolongation
 // come from A's M-matrix part, the coarse operators are P^T A P; symmetric Gauss-Seidel smoothing; every
 // level's matrix is kept with float values and the two right-hand sides interleaved, because at 500k unknowns
 // the cycles are bound by memory traffic (the conjugate gradients themselves run in double); the levels are
-// built for D^-1/2 A D^-1/2, whose entries float holds whatever A's range.
+// built for D^-1/2 A D^-1/2 (near null vector D^1/2 1), whose entries float holds whatever A's range.
 //
 // Preconditions (documented, not all checked): A is square, symmetric with its full pattern stored (both
 // triangles), with a positive diagonal and positive definite; its near null space is the constant vector (a
