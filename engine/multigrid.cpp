@@ -91,6 +91,17 @@ Matrix m_matrix_part(const Matrix& A) {
   return M;
 }
 
+// Scales the symmetric m to a unit diagonal, m <- S m S with S = diag(m_ii^-1/2), and returns S; false (m
+// untouched) when a diagonal entry is not positive and finite.
+bool scale_to_unit_diagonal(Matrix& m, Eigen::VectorXd& scale) {
+  const Eigen::VectorXd diag = m.diagonal();
+  if (!(diag.array() > 0).all() || !diag.allFinite()) return false;
+  scale = diag.cwiseSqrt().cwiseInverse();
+  for (int c = 0; c < m.outerSize(); ++c)
+    for (Matrix::InnerIterator it(m, c); it; ++it) it.valueRef() *= scale[it.row()] * scale[c];
+  return true;
+}
+
 // Cuthill-McKee order of A's graph (breadth first from each component's first unknown, neighbours in
 // index order): unknowns that are neighbours get near indices, so the gathers of a sweep stay in cache and
 // aggregates (formed in index order) are compact.
@@ -113,7 +124,8 @@ std::vector<int> breadth_first_order(const Matrix& A) {
   return order;
 }
 
-// B = A with rows and columns renumbered: B(k, l) = A(order[k], order[l]) (both triangles stored, rows sorted).
+// B = A with rows and columns renumbered: B(k, l) = A(order[k], order[l]), both triangles stored and each
+// column's rows sorted (the sweeps look the diagonal up by binary search).
 Matrix permuted(const Matrix& A, const std::vector<int>& order) {
   const int n = static_cast<int>(A.cols());
   std::vector<int> position(static_cast<std::size_t>(n));
@@ -237,8 +249,9 @@ struct Compact {
     if (m.outerSize() == 0) outer.assign(1, 0);
   }
   int columns() const { return static_cast<int>(outer.size()) - 1; }
-  // out_j (+)= sum_i M_ij in_i for each column j (a gather: M^T in), for both interleaved right-hand sides.
-  void gather(const double* in, double* out, bool add) const {
+  // out_j (+)= sum_i M_ij in_i for each column j (a gather: M^T in), for both interleaved right-hand sides;
+  // with dot (M square), also dot[c] += sum_j in_j out_j in the same pass (the conjugate gradients' p.Ap).
+  void gather(const double* in, double* out, bool add, double* dot = nullptr) const {
     const int cols = columns();
     for (int j = 0; j < cols; ++j) {
       double s0 = 0, s1 = 0;
@@ -254,6 +267,10 @@ struct Compact {
       } else {
         out[2 * j] = s0;
         out[2 * j + 1] = s1;
+      }
+      if (dot) {
+        dot[0] += in[2 * j] * s0;
+        dot[1] += in[2 * j + 1] * s1;
       }
     }
   }
@@ -359,6 +376,18 @@ struct AggregationMultigrid::Hierarchy {
     for (int s = 0; s < sweeps; ++s) sweep(l, b, z, false, false);
   }
 
+  // A block of the system's unknowns in the levels' order, and back.
+  Pairs in_level_order(const Block& b) const {
+    Pairs out(b.rows(), 2);
+    for (Eigen::Index k = 0; k < b.rows(); ++k) out.row(k) = b.row(order[static_cast<std::size_t>(k)]);
+    return out;
+  }
+  Block in_input_order(const Pairs& x) const {
+    Block out(x.rows(), 2);
+    for (Eigen::Index k = 0; k < x.rows(); ++k) out.row(order[static_cast<std::size_t>(k)]) = x.row(k);
+    return out;
+  }
+
   // z = S V(S r): the V-cycle of S A S, an approximation of A^-1 (exact with one level: the factor's solve).
   void precondition(const Pairs& r, Pairs& z, int sweeps) const {
     const Eigen::Index n = r.rows();
@@ -385,19 +414,12 @@ bool AggregationMultigrid::compute(const Matrix& A) {
   // The hierarchy is built for S A S with S = diag(a_ii^-1/2): unit diagonal, off-diagonal entries within
   // [-1, 1] (A is SPD), so that its float copies neither overflow nor lose a row to underflow whatever A's
   // range (the optimizer's powered-mips weights span 1e+-80 and more); the cycle is scaled back (precondition).
-  {
-    const Eigen::VectorXd diag = current.diagonal();
-    if (!(diag.array() > 0).all() || !diag.allFinite()) return false;
-    h.scale = diag.cwiseSqrt().cwiseInverse();
-    for (int c = 0; c < current.outerSize(); ++c)
-      for (Matrix::InnerIterator it(current, c); it; ++it) it.valueRef() *= h.scale[it.row()] * h.scale[c];
-    near_null = diag.cwiseSqrt();  // A's constant vector in the scaled unknowns: S^-1 1
-  }
-  for (;;) {
+  near_null = current.diagonal().cwiseSqrt();  // A's constant vector in the scaled unknowns: S^-1 1
+  if (!scale_to_unit_diagonal(current, h.scale)) return false;
+  for (;;) {  // every level has a unit diagonal (up to rounding) here
     const int n = static_cast<int>(current.rows());
     stats_.operator_nonzeros += current.nonZeros();
     const Eigen::VectorXd diag = current.diagonal();
-    if (!(diag.array() > 0).all() || !diag.allFinite()) return false;
     h.levels.emplace_back();
     Hierarchy::Level& l = h.levels.back();
     // The inverse of the diagonal as the sweeps see it, in float like the rest of the level's matrix: with the
@@ -433,11 +455,8 @@ bool AggregationMultigrid::compute(const Matrix& A) {
     coarse = 0.5 * (coarse + Matrix(coarse.transpose()));
     // Scaled to a unit diagonal as the finest level is (S_c P^T A P S_c with P's columns scaled by S_c): an
     // aggregate joined to the rest by tiny weights only has a tiny diagonal entry, which float would lose.
-    const Eigen::VectorXd coarse_diag = coarse.diagonal();
-    if (!(coarse_diag.array() > 0).all() || !coarse_diag.allFinite()) return false;
-    const Eigen::VectorXd coarse_scale = coarse_diag.cwiseSqrt().cwiseInverse();
-    for (int c = 0; c < coarse.outerSize(); ++c)
-      for (Matrix::InnerIterator it(coarse, c); it; ++it) it.valueRef() *= coarse_scale[it.row()] * coarse_scale[c];
+    Eigen::VectorXd coarse_scale;
+    if (!scale_to_unit_diagonal(coarse, coarse_scale)) return false;
     for (int c = 0; c < R.outerSize(); ++c)
       for (Matrix::InnerIterator it(R, c); it; ++it) it.valueRef() *= coarse_scale[it.row()];
     near_null = norm.cwiseQuotient(coarse_scale);  // in the coarse level's scaled unknowns
@@ -457,13 +476,9 @@ bool AggregationMultigrid::compute(const Matrix& A) {
 
 AggregationMultigrid::Block AggregationMultigrid::cycle(const Block& b_in) const {
   const Hierarchy& h = *hierarchy_;
-  const Eigen::Index n = b_in.rows();
-  Pairs r(n, 2), z(n, 2);
-  for (Eigen::Index k = 0; k < n; ++k) r.row(k) = b_in.row(h.order[static_cast<std::size_t>(k)]);
-  h.precondition(r, z, settings_.smoothing_sweeps);
-  Block out(n, 2);
-  for (Eigen::Index k = 0; k < n; ++k) out.row(h.order[static_cast<std::size_t>(k)]) = z.row(k);
-  return out;
+  Pairs z;
+  h.precondition(h.in_level_order(b_in), z, settings_.smoothing_sweeps);
+  return h.in_input_order(z);
 }
 
 AggregationMultigrid::Block AggregationMultigrid::solve(const Block& b_in, const CancelToken* cancel) const {
@@ -473,16 +488,10 @@ AggregationMultigrid::Block AggregationMultigrid::solve(const Block& b_in, const
   stats_.relative_residual = 0;
   if (!b_in.allFinite()) return Block::Constant(n, 2, std::numeric_limits<double>::quiet_NaN());
   const Eigen::Array2d bnorm = b_in.colwise().stableNorm().transpose().array();
-  Pairs r(n, 2), z(n, 2), q(n, 2);
-  for (Eigen::Index k = 0; k < n; ++k) r.row(k) = b_in.row(h.order[static_cast<std::size_t>(k)]);
-  auto in_input_order = [&](const Pairs& x) {
-    Block out(n, 2);
-    for (Eigen::Index k = 0; k < n; ++k) out.row(h.order[static_cast<std::size_t>(k)]) = x.row(k);
-    return out;
-  };
+  Pairs r = h.in_level_order(b_in), z(n, 2), q(n, 2);
   if (h.levels.size() == 1) {  // small enough to factor whole
     h.precondition(r, z, settings_.smoothing_sweeps);
-    return in_input_order(z);
+    return h.in_input_order(z);
   }
   Pairs x = Pairs::Zero(n, 2);
   Eigen::Array2d active(bnorm(0) > 0 ? 1.0 : 0.0, bnorm(1) > 0 ? 1.0 : 0.0);
@@ -497,24 +506,7 @@ AggregationMultigrid::Block AggregationMultigrid::solve(const Block& b_in, const
     // The vector work of an iteration is fused into two passes (at 500k unknowns each pass over a vector
     // is memory traffic): q = A p with p.q, then x += alpha p, r -= alpha q with |r|^2.
     Eigen::Array2d pq = Eigen::Array2d::Zero();
-    {
-      const Compact<double>& A = h.finest;
-      const double* pv = p.data();
-      double* qv = q.data();
-      for (Eigen::Index j = 0; j < n; ++j) {
-        double s0 = 0, s1 = 0;
-        for (int k = A.outer[static_cast<std::size_t>(j)]; k < A.outer[static_cast<std::size_t>(j) + 1]; ++k) {
-          const double a = A.value[static_cast<std::size_t>(k)];
-          const std::size_t i = 2 * static_cast<std::size_t>(A.inner[static_cast<std::size_t>(k)]);
-          s0 += a * pv[i];
-          s1 += a * pv[i + 1];
-        }
-        qv[2 * j] = s0;
-        qv[2 * j + 1] = s1;
-        pq(0) += pv[2 * j] * s0;
-        pq(1) += pv[2 * j + 1] * s1;
-      }
-    }
+    h.finest.gather(p.data(), q.data(), false, pq.data());
     Eigen::Array2d alpha = Eigen::Array2d::Zero();
     for (int c = 0; c < 2; ++c)
       if (active(c) > 0 && pq(c) > 0 && std::isfinite(pq(c))) alpha(c) = rz(c) / pq(c);
@@ -556,7 +548,7 @@ AggregationMultigrid::Block AggregationMultigrid::solve(const Block& b_in, const
   }
   for (int c = 0; c < 2; ++c)
     if (bnorm(c) > 0) stats_.relative_residual = std::max(stats_.relative_residual, relative(c));
-  return in_input_order(x);
+  return h.in_input_order(x);
 }
 
 }  // namespace lipmap
