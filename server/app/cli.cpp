@@ -206,6 +206,9 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
     codec::RequestInput input;
     input.file = args.mesh_file;
     input.read_file = [](const std::string& file) { return read_all(file, std::cin); };
+    // One job alone: a big body is read, and a big answer formatted, on two threads when the machine has them.
+    const int threads = std::thread::hardware_concurrency() >= 2 ? 2 : 1;
+    input.read_threads = threads;
     input.boundary_file = args.boundary_file;
     // --metric texcoord:N reads the reference map from the glTF primitive: a usage error without glTF.
     if (gltf::parse_texcoord_spec(args.metric) && !gltf::format_from_path(args.mesh_file))
@@ -286,8 +289,6 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
       write_obj(text, result.map.vertices, result.map.faces, &result.map.uv);
       write_text_file(args.output_file, text.str());
     } else {
-      // One job alone: a big answer is formatted on two threads when the machine has them.
-      const int threads = std::thread::hardware_concurrency() >= 2 ? 2 : 1;
       write_text_file(args.output_file, codec::parametrize_result_to_text(result, args.pretty, threads), "\n");
     }
     if (!args.preview_file.empty())

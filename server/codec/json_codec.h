@@ -93,8 +93,10 @@ ParametrizeRequest parametrize_request_from_json(const nlohmann::json& body);
 // parametrize_request_from_json (e.g. an invalid option).
 // `padding`: how many bytes after the text may be read, all of them initialized (a std::string with room
 // to spare, e.g.); from kJsonReadPadding on, the text is read where it is instead of copied into a padded
-// buffer first (simdjson reads in 64-byte blocks).
-std::optional<ParametrizeRequest> parametrize_request_from_text(std::string_view text, std::size_t padding = 0);
+// buffer first (simdjson reads in 64-byte blocks). `threads` > 1: the mesh's first big array is read on a
+// helper thread while the caller's reads the rest (for a job alone on the machine).
+std::optional<ParametrizeRequest> parametrize_request_from_text(std::string_view text, std::size_t padding = 0,
+                                                                int threads = 1);
 inline constexpr std::size_t kJsonReadPadding = 64;
 // Writes kJsonReadPadding zero bytes just past text's end, in room the string already has (its size does not
 // change); returns how many, 0 when there is no such room. Then parametrize_request_from_text(text, that)

@@ -6,10 +6,13 @@
 #include <cstdint>
 #include <cmath>
 #include <cstring>
+#include <exception>
 #include <optional>
 #include <string>
 #include <string_view>
+#include <system_error>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <simdjson.h>
@@ -42,7 +45,10 @@ namespace od = simdjson::ondemand;
 
 class RequestReader {
 public:
-  explicit RequestReader(ParametrizeRequest& out) : out_(out) {}
+  // threads > 1: the mesh's first big array (its vertices or its faces, whichever the body gives first) is
+  // read by a helper thread with a parser of its own while this one reads the rest; each takes about half.
+  RequestReader(ParametrizeRequest& out, int threads) : out_(out), threads_(threads) {}
+  ~RequestReader() { join_helper(); }
 
   // False: not a plain body (the DOM path judges it). The whole text is read: nothing may follow the object.
   bool read(std::string_view text, std::size_t padding) {
@@ -55,6 +61,7 @@ public:
       copy.emplace(text.data(), text.size());
       view = *copy;
     }
+    buffer_end_ = view.data() + view.capacity();
     od::parser parser;
     od::document doc;
     od::object root;
@@ -64,11 +71,9 @@ public:
       if (key == "boundary") return first(kBoundary) && boundary(value);
       if (key == "options") return first(kOptions) && small_member(value, od::json_type::object, rest_["options"], 1);
       return false;
-    });
-    if (!ok) return false;
-    // At the end of the text, current_location has no place to give.
-    const char* at = nullptr;
-    return doc.current_location().get(at) != simdjson::SUCCESS;
+    }) && at_end(doc);
+    // The helper's rows count only when both readers accepted their parts.
+    return join_helper() && ok;
   }
 
   // The members read here, as the DOM the typed readers expect: the big arrays empty (filled already).
@@ -97,9 +102,10 @@ private:
     return true;
   }
 
-  // Each element of an array of arrays handed to take(row); false at the first it refuses.
-  template <class Take>
-  static bool rows_of(od::value value, Take take) {
+  // Each element of an array of arrays (a value, or a document that is one) handed to take(row); false at
+  // the first it refuses.
+  template <class Value, class Take>
+  static bool rows_of(Value&& value, Take take) {
     od::array rows;
     if (value.get_array().get(rows)) return false;
     for (auto element : rows) {
@@ -109,15 +115,77 @@ private:
     return true;
   }
 
+  // At the end of the text, current_location has no place to give.
+  static bool at_end(od::document& doc) {
+    const char* at = nullptr;
+    return doc.current_location().get(at) != simdjson::SUCCESS;
+  }
+
   bool mesh(od::value value) {
     od::object mesh;
     if (value.get_object().get(mesh)) return false;
     return members(mesh, [&](std::string_view key, od::value v) {
-      if (key == "vertices")
-        return first(kVertices) && points<3>(v, [&](const double* c) { out_.mesh.vertices.push_back({c[0], c[1], c[2]}); });
-      if (key == "faces") return first(kFaces) && faces(v);
+      if (key == "vertices") {
+        if (!first(kVertices)) return false;
+        if (can_hand_off()) return hand_off(v, [](od::document& d, ParametrizeRequest& into) { return vertices(d, into); });
+        return vertices(v, out_);
+      }
+      if (key == "faces") {
+        if (!first(kFaces)) return false;
+        if (can_hand_off()) return hand_off(v, [](od::document& d, ParametrizeRequest& into) { return faces(d, into); });
+        return faces(v, out_);
+      }
       return false;
     });
+  }
+
+  template <class Value>
+  static bool vertices(Value&& v, ParametrizeRequest& into) {
+    return points<3>(v, [&](const double* c) { into.mesh.vertices.push_back({c[0], c[1], c[2]}); });
+  }
+
+  // ---- the helper thread -------------------------------------------------------------------------------
+  bool can_hand_off() const { return threads_ > 1 && !helper_.joinable() && !helper_failed_; }
+
+  // The array v cut out as text (the main parser skips it) and read by read(document, into) on a helper
+  // thread, into a request of its own that join_helper moves into out_. The text is read in place: what
+  // follows it in the buffer (the rest of the body and its padding) is the padding simdjson needs.
+  template <class Read>
+  bool hand_off(od::value v, Read read) {
+    od::array array;
+    std::string_view text;
+    if (v.get_array().get(array) || array.raw_json().get(text)) return false;
+    const std::size_t room = static_cast<std::size_t>(buffer_end_ - text.data());
+    try {
+      helper_ = std::thread([this, text, room, read] {
+        try {
+          od::parser parser;
+          od::document doc;
+          helper_ok_ = !parser.iterate(simdjson::padded_string_view(text.data(), text.size(), room)).get(doc) &&
+                       read(doc, helper_out_) && at_end(doc);
+        } catch (...) {
+          helper_error_ = std::current_exception();
+        }
+      });
+    } catch (const std::system_error&) {  // no thread to be had: read it here
+      helper_failed_ = true;
+      od::parser parser;
+      od::document doc;
+      return !parser.iterate(simdjson::padded_string_view(text.data(), text.size(), room)).get(doc) &&
+             read(doc, out_) && at_end(doc);
+    }
+    return true;
+  }
+
+  // Waits for the helper (if any) and takes its rows; false when it refused its part.
+  bool join_helper() {
+    if (!helper_.joinable()) return true;
+    helper_.join();
+    if (helper_error_) std::rethrow_exception(std::exchange(helper_error_, nullptr));
+    if (!helper_ok_) return false;
+    if (!helper_out_.mesh.vertices.empty()) out_.mesh.vertices = std::move(helper_out_.mesh.vertices);
+    if (!helper_out_.mesh.faces.empty()) out_.mesh.faces = std::move(helper_out_.mesh.faces);
+    return true;
   }
 
   bool boundary(od::value value) {
@@ -135,8 +203,8 @@ private:
   }
 
   // An array of rows of N coordinates, each row handed to put.
-  template <int N, class Put>
-  static bool points(od::value value, Put put) {
+  template <int N, class Value, class Put>
+  static bool points(Value&& value, Put put) {
     return rows_of(value, [&](od::array& row) {
       double c[N];
       int k = 0;
@@ -164,9 +232,10 @@ private:
   }
 
   // Faces as written, any length (validate judges them); an index must be an integer that fits a long long.
-  bool faces(od::value value) {
+  template <class Value>
+  static bool faces(Value&& value, ParametrizeRequest& into) {
     return rows_of(value, [&](od::array& row) {
-      std::vector<long long>& face = out_.mesh.faces.emplace_back();
+      std::vector<long long>& face = into.mesh.faces.emplace_back();
       face.reserve(3);  // one allocation for a triangle, not three
       for (auto x : row) {
         std::int64_t i;
@@ -198,6 +267,12 @@ private:
   ParametrizeRequest& out_;
   unsigned seen_ = 0;  // the reader's members seen so far (one object of each kind per body)
   json rest_ = json::object();
+  const int threads_;
+  const char* buffer_end_ = nullptr;  // the end of the text's padding
+  std::thread helper_;
+  ParametrizeRequest helper_out_;
+  bool helper_ok_ = false, helper_failed_ = false;
+  std::exception_ptr helper_error_;
 };
 
 // ---- the answer's text without a DOM for its big arrays ------------------------------------------------
@@ -428,9 +503,10 @@ std::size_t pad_for_reading(std::string& text) {
   return kJsonReadPadding;
 }
 
-std::optional<ParametrizeRequest> parametrize_request_from_text(std::string_view text, std::size_t padding) {
+std::optional<ParametrizeRequest> parametrize_request_from_text(std::string_view text, std::size_t padding,
+                                                                int threads) {
   ParametrizeRequest big;
-  RequestReader reader(big);
+  RequestReader reader(big, threads);
   if (!reader.read(text, padding)) return std::nullopt;
   // The small members through the typed readers, with empty big arrays where the body had them, so that
   // a missing member is reported as before.

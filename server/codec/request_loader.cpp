@@ -73,7 +73,7 @@ LoadedRequest parametrize_json(const RequestInput& input) {
   if (input.file.empty()) {
     // A plain body is read straight into the engine's arrays; anything else (an envelope, an error) the
     // ordinary way.
-    if (auto request = parametrize_request_from_text(input.body, input.body_padding)) {
+    if (auto request = parametrize_request_from_text(input.body, input.body_padding, input.read_threads)) {
       out.request = std::move(*request);
       return out;
     }
@@ -86,7 +86,7 @@ LoadedRequest parametrize_json(const RequestInput& input) {
     // With a boundary document the body's boundary is still parsed (a body must be a valid request), then
     // replaced.
     std::string text = read(input, input.file);
-    if (auto request = parametrize_request_from_text(text, pad_for_reading(text))) out.request = std::move(*request);
+    if (auto request = parametrize_request_from_text(text, pad_for_reading(text), input.read_threads)) out.request = std::move(*request);
     else out.request = parametrize_request_from_json(parse_json(text));
   } catch (const JsonError& e) {
     rethrow_in_file(e, input.file);

@@ -46,6 +46,7 @@ struct RequestInput {
   // HTTP: the body and its Content-Type (parameters ignored); multipart bodies come as their parts.
   std::string_view body;
   std::size_t body_padding = 0;  // initialized bytes readable after body (parametrize_request_from_text)
+  int read_threads = 1;          // threads that may read a big JSON body (parametrize_request_from_text)
   std::string media_type;
   std::map<std::string, gltf::Part> parts;
   // Command line: the MESH file (its extension names the form) and the reader of a file's bytes; a mesh file

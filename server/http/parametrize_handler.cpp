@@ -78,6 +78,7 @@ std::variant<ParsedParametrize, Answer> parse_parametrize(Service& service, cons
   input.body = req.body;
   // pre_routing reserved the room for it: the JSON reader reads the body in place.
   input.body_padding = codec::pad_for_reading(const_cast<std::string&>(req.body));
+  input.read_threads = service.read_threads();
   input.media_type = req.get_header_value("Content-Type");
   if (!codec::request_form(input)) {
     Answer a = *require_json(req);

@@ -127,6 +127,11 @@ int Service::answer_threads() const {
   return cores >= 2 && pool.busy() <= 1 && pool.queue_depth() == 0 ? 2 : 1;
 }
 
+int Service::read_threads() const {
+  static const unsigned cores = std::thread::hardware_concurrency();
+  return cores >= 2 && pool.busy() == 0 && pool.queue_depth() == 0 ? 2 : 1;
+}
+
 TestHooks Service::hooks_of(const httplib::Request& req) const {
   TestHooks h;
   if (!config.test_hooks) return h;

@@ -71,6 +71,9 @@ public:
   // machine has a second core (the request's HTTP thread only waits meanwhile), else 1: under load the
   // workers are the parallelism.
   int answer_threads() const;
+  // Threads for reading a request's body on its HTTP thread: 2 when the pool is idle and the machine has a
+  // second core, else 1.
+  int read_threads() const;
   TestHooks hooks_of(const httplib::Request& req) const;
 
   // Runs `work` on the pool and waits for its answer (synchronous endpoints); 504 when the deadline

@@ -247,12 +247,15 @@ void expect_same_read_in_place(const Outcome& copied, const std::string& body) {
   const std::size_t padding = codec::pad_for_reading(text);
   ASSERT_EQ(padding, codec::kJsonReadPadding);
   ASSERT_EQ(text, body);
-  const Outcome in_place = outcome([&] { return codec::parametrize_request_from_text(text, padding); });
-  ASSERT_EQ(in_place.request.has_value(), copied.request.has_value()) << body;
-  if (copied.request) expect_same_request(*copied.request, *in_place.request, body);
-  ASSERT_EQ(in_place.code, copied.code) << body;
-  ASSERT_EQ(in_place.pointer, copied.pointer) << body;
-  ASSERT_EQ(in_place.message, copied.message) << body;
+  // And with the mesh's first big array read by a helper thread, in place and from a copy.
+  for (const auto& [pad, threads] : {std::pair<std::size_t, int>{padding, 1}, {padding, 2}, {0, 2}}) {
+    const Outcome other = outcome([&] { return codec::parametrize_request_from_text(text, pad, threads); });
+    ASSERT_EQ(other.request.has_value(), copied.request.has_value()) << threads << " threads: " << body;
+    if (copied.request) expect_same_request(*copied.request, *other.request, body);
+    ASSERT_EQ(other.code, copied.code) << body;
+    ASSERT_EQ(other.pointer, copied.pointer) << body;
+    ASSERT_EQ(other.message, copied.message) << body;
+  }
 }
 
 TEST(JsonFastPaths, RequestFromTextAgreesWithTheDomPath) {
@@ -305,11 +308,15 @@ TEST(JsonFastPaths, TextAroundAndInsideTheBodyIsJudgedAsTheDomJudgesIt) {
       const std::string text = before + body + after;
       const Outcome dom = outcome([&] { return codec::parametrize_request_from_json(codec::parse_json(text)); });
       const Outcome fast = outcome([&] { return codec::parametrize_request_from_text(text); });
+      const Outcome two = outcome([&] { return codec::parametrize_request_from_text(text, 0, 2); });
       if (!dom.request) {
         ASSERT_FALSE(fast.request) << "the fast path accepts what the DOM path refuses: " << text;
+        ASSERT_FALSE(two.request) << "the fast path on 2 threads accepts what the DOM path refuses: " << text;
         ++refused;
       } else if (fast.request) {
         expect_same_request(*dom.request, *fast.request, text);
+        ASSERT_TRUE(two.request) << text;
+        expect_same_request(*dom.request, *two.request, text);
         ++accepted;
       }
     }
