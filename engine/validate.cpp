@@ -57,14 +57,14 @@ void check_finite_coordinates(const RawMesh& raw) {
 }
 
 // face_not_triangle, then face_index_out_of_range, then the faces as Triangles, in one pass over the raw
-// faces (each a separate small vector: one walk over them, not three). A face that is not a triangle is
+// faces (one walk over them, not three). A face that is not a triangle is
 // reported first whatever the faces before it hold, so an index out of range is only noted on the way.
 std::vector<Triangle> checked_triangles(const RawMesh& raw) {
   const long long n = static_cast<long long>(raw.vertices.size());
   std::vector<Triangle> faces(raw.faces.size());
   size_t bad_face = raw.faces.size(), bad_corner = 0;
   for (size_t f = 0; f < raw.faces.size(); ++f) {
-    const std::vector<long long>& face = raw.faces[f];
+    const FaceList::ConstFace face = raw.faces[f];
     if (face.size() != 3)
       reject("face_not_triangle", "face " + s(f) + " has " + s(face.size()) +
                                       " corners; only triangles are accepted", "face", f);

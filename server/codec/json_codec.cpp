@@ -304,10 +304,8 @@ ParametrizeRequest parametrize_request_from_json(const json& body) {
     for (std::size_t f = 0; f < faces.size(); ++f) {
       const Path face_at = at / f;
       const json& face = array(faces[f], face_at, "a face [i, j, k] of vertex indices");
-      std::vector<long long> corners;
-      corners.reserve(face.size());
-      for (std::size_t c = 0; c < face.size(); ++c) corners.push_back(integer(face[c], face_at / c));
-      request.mesh.faces.push_back(std::move(corners));
+      request.mesh.faces.open_face();
+      for (std::size_t c = 0; c < face.size(); ++c) request.mesh.faces.add_index(integer(face[c], face_at / c));
     }
   }
 
@@ -354,7 +352,7 @@ ordered_json parametrize_request_to_json(const ParametrizeRequest& request) {
   mesh["vertices"] = ordered_json::array();
   for (const Point3& p : request.mesh.vertices) mesh["vertices"].push_back({p.x, p.y, p.z});
   mesh["faces"] = ordered_json::array();
-  for (const auto& f : request.mesh.faces) mesh["faces"].push_back(f);
+  for (const auto& f : request.mesh.faces) mesh["faces"].push_back(std::vector<long long>(f));
   ordered_json& boundary = out["boundary"];
   if (request.boundary.vertices) boundary["vertices"] = *request.boundary.vertices;
   boundary["positions"] = ordered_json::array();

@@ -235,12 +235,11 @@ private:
   template <class Value>
   static bool faces(Value&& value, ParametrizeRequest& into) {
     return rows_of(value, [&](od::array& row) {
-      std::vector<long long>& face = into.mesh.faces.emplace_back();
-      face.reserve(3);  // one allocation for a triangle, not three
+      into.mesh.faces.open_face();
       for (auto x : row) {
         std::int64_t i;
         if (x.get_int64().get(i)) return false;
-        face.push_back(i);
+        into.mesh.faces.add_index(i);
       }
       return true;
     });
