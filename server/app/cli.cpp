@@ -17,6 +17,7 @@
 #include <chrono>
 #include <cstdio>
 #include <mutex>
+#include <optional>
 
 #include <CLI/CLI.hpp>
 
@@ -260,6 +261,10 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
         }
         err.flush();
       };
+    // The second core formats the mesh's rows of a big JSON answer while the engine maps it.
+    std::optional<codec::MeshRowsAhead> ahead;
+    if (out_ext == "json" && !args.pretty && threads > 1 && mesh.vertices.size() + mesh.faces.size() >= codec::kParallelAnswerRows)
+      ahead.emplace(mesh);
     ParametrizeResult result;
     try {
       result = parametrize(mesh, boundary, options, nullptr, progress);
@@ -289,7 +294,8 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
       write_obj(text, result.map.vertices, result.map.faces, &result.map.uv);
       write_text_file(args.output_file, text.str());
     } else {
-      write_text_file(args.output_file, codec::parametrize_result_to_text(result, args.pretty, threads), "\n");
+      write_text_file(args.output_file,
+                      codec::parametrize_result_to_text(result, args.pretty, threads, ahead ? &*ahead : nullptr), "\n");
     }
     if (!args.preview_file.empty())
       write_text_file(args.preview_file, preview::render_svg(preview::picture_of(result, "lipmap map " + args.mesh_file)));

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstddef>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -140,8 +141,31 @@ nlohmann::ordered_json parametrize_result_to_json(const lipmap::ParametrizeResul
 // arrays (mesh, uv, inserted): the numbers go from the engine's arrays straight into the text. `threads` > 1
 // formats the rows of an answer with at least kParallelAnswerRows vertices + faces + uv on that many threads
 // (the caller's included): for a job alone on the machine.
-std::string parametrize_result_to_text(const lipmap::ParametrizeResult& result, bool pretty = false, int threads = 1);
+class MeshRowsAhead;
+std::string parametrize_result_to_text(const lipmap::ParametrizeResult& result, bool pretty = false, int threads = 1,
+                                      MeshRowsAhead* ahead = nullptr);
 inline constexpr std::size_t kParallelAnswerRows = 50'000;
+
+// The answer's text of a request's mesh rows (vertices, faces), formatted ahead on a thread of its own while
+// the engine maps the mesh: a job alone on the machine leaves a core idle, and the mesh is most of a big
+// answer (the refined mesh keeps the original vertices first, same index and position, and every face when
+// nothing was refined). parametrize_result_to_text(result, false, threads, &ahead) takes each finished block
+// of rows the answer holds unchanged (compared bit for bit) instead of formatting it again: the same bytes,
+// sooner. `mesh` must outlive this object; its destructor stops the thread (within one block) and waits.
+class MeshRowsAhead {
+public:
+  explicit MeshRowsAhead(const RawMesh& mesh);
+  ~MeshRowsAhead();
+  // Waits until every block is formatted (or the thread gave up).
+  void wait();
+  MeshRowsAhead(const MeshRowsAhead&) = delete;
+  MeshRowsAhead& operator=(const MeshRowsAhead&) = delete;
+  struct Impl;
+
+private:
+  friend std::string parametrize_result_to_text(const lipmap::ParametrizeResult&, bool, int, MeshRowsAhead*);
+  std::unique_ptr<Impl> impl_;
+};
 
 // ---- classify answer --------------------------------------------------------------------------------
 // {"verdict", "turning_number", "triangulation": [[i,j,k]...], "rotation_indices", "singular_vertices",

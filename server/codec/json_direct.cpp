@@ -299,6 +299,29 @@ char* put_text(char* p, std::string_view s) {
   return p + s.size();
 }
 
+char* put_vertex(char* p, const Point3& q, std::string_view sep) {
+  *p++ = '[';
+  p = put_double(p, q.x);
+  p = put_text(p, sep);
+  p = put_double(p, q.y);
+  p = put_text(p, sep);
+  p = put_double(p, q.z);
+  *p++ = ']';
+  return p;
+}
+
+template <class Index>
+char* put_face(char* p, Index a, Index b, Index c, std::string_view sep) {
+  *p++ = '[';
+  p = put_int(p, a);
+  p = put_text(p, sep);
+  p = put_int(p, b);
+  p = put_text(p, sep);
+  p = put_int(p, c);
+  *p++ = ']';
+  return p;
+}
+
 // The big arrays at depth `depth` of dump_pretty (pretty) or on one line (compact). Each row is formatted
 // into a small buffer and appended at once: one call into the string per row, not one per character.
 struct BigArrays {
@@ -335,26 +358,11 @@ struct BigArrays {
   void span(Kind k, std::size_t begin, std::size_t end, int depth, bool pretty, std::string& out) const {
     switch (k) {
       case kVertices: return span(begin, end, depth, pretty, out, [&](std::size_t i, char* p, std::string_view sep) {
-        const Point3& q = r.map.vertices[i];
-        *p++ = '[';
-        p = put_double(p, q.x);
-        p = put_text(p, sep);
-        p = put_double(p, q.y);
-        p = put_text(p, sep);
-        p = put_double(p, q.z);
-        *p++ = ']';
-        return p;
+        return put_vertex(p, r.map.vertices[i], sep);
       });
       case kFaces: return span(begin, end, depth, pretty, out, [&](std::size_t i, char* p, std::string_view sep) {
         const Triangle& t = r.map.faces[i];
-        *p++ = '[';
-        p = put_int(p, t[0]);
-        p = put_text(p, sep);
-        p = put_int(p, t[1]);
-        p = put_text(p, sep);
-        p = put_int(p, t[2]);
-        *p++ = ']';
-        return p;
+        return put_face(p, t[0], t[1], t[2], sep);
       });
       case kUv: return span(begin, end, depth, pretty, out, [&](std::size_t i, char* p, std::string_view sep) {
         const Point2& q = r.map.uv[i];
@@ -448,9 +456,96 @@ void write_answer(const ordered_json& v, int depth, bool pretty, const BigArrays
   out += '}';
 }
 
-// The answer with its big arrays cut into spans of rows, formatted by `threads` threads (this one and
-// threads - 1 more), then joined in order: the same bytes as one thread writes, sooner.
-std::string write_answer_in_parallel(const ordered_json& skeleton, bool pretty, const BigArrays& big, int threads) {
+// Rows per span of the parallel writer, and per block of MeshRowsAhead (so that a block is a span).
+constexpr std::size_t kBlockRows = 8192;
+
+}  // namespace
+
+// ---- the request's mesh rows formatted ahead ---------------------------------------------------------------
+struct MeshRowsAhead::Impl {
+  explicit Impl(const RawMesh& m) : mesh(m) {
+    vertex_blocks.resize((mesh.vertices.size() + kBlockRows - 1) / kBlockRows);
+    face_blocks.resize((mesh.faces.size() + kBlockRows - 1) / kBlockRows);
+  }
+
+  // Block after block, the vertices' then the faces' (compact text, as the answer's spans), until told to stop.
+  void run() {
+    try {
+      for (std::size_t k = 0; k < vertex_blocks.size() && !stop.load(std::memory_order_relaxed); ++k) {
+        const std::size_t b = k * kBlockRows, e = std::min(mesh.vertices.size(), b + kBlockRows);
+        BigArrays::span(b, e, 0, false, vertex_blocks[k], [&](std::size_t i, char* p, std::string_view sep) {
+          return put_vertex(p, mesh.vertices[i], sep);
+        });
+        vertices_done.store(k + 1, std::memory_order_release);
+      }
+      for (std::size_t k = 0; k < face_blocks.size() && !stop.load(std::memory_order_relaxed); ++k) {
+        const std::size_t b = k * kBlockRows, e = std::min(mesh.faces.size(), b + kBlockRows);
+        for (std::size_t f = b; f < e; ++f)
+          if (mesh.faces[f].size() != 3) return;  // not a mesh the engine maps
+        BigArrays::span(b, e, 0, false, face_blocks[k], [&](std::size_t i, char* p, std::string_view sep) {
+          const FaceList::ConstFace f = mesh.faces[i];
+          return put_face(p, f[0], f[1], f[2], sep);
+        });
+        faces_done.store(k + 1, std::memory_order_release);
+      }
+    } catch (...) {  // out of memory: the answer formats what is missing itself
+    }
+  }
+
+  // The text of rows [begin, end) of the answer's array `kind` moved into `out`, when a finished block holds
+  // exactly those rows and the answer's rows are the request's, bit for bit; false otherwise.
+  bool take(BigArrays::Kind kind, std::size_t begin, std::size_t end, const ParametrizeResult& r, std::string& out) {
+    if (begin % kBlockRows != 0) return false;
+    const std::size_t k = begin / kBlockRows;
+    if (kind == BigArrays::kVertices) {
+      if (k >= vertices_done.load(std::memory_order_acquire) || end != std::min(mesh.vertices.size(), begin + kBlockRows))
+        return false;
+      if (std::memcmp(&r.map.vertices[begin], &mesh.vertices[begin], (end - begin) * sizeof(Point3)) != 0) return false;
+      out = std::move(vertex_blocks[k]);
+      return true;
+    }
+    if (kind == BigArrays::kFaces) {
+      if (k >= faces_done.load(std::memory_order_acquire) || end != std::min(mesh.faces.size(), begin + kBlockRows))
+        return false;
+      const long long* raw = mesh.faces.indices().data() + 3 * begin;  // every face up to `end` is a triangle
+      for (std::size_t f = begin; f < end; ++f, raw += 3)
+        if (r.map.faces[f][0] != raw[0] || r.map.faces[f][1] != raw[1] || r.map.faces[f][2] != raw[2]) return false;
+      out = std::move(face_blocks[k]);
+      return true;
+    }
+    return false;
+  }
+
+  const RawMesh& mesh;
+  std::vector<std::string> vertex_blocks, face_blocks;
+  std::atomic<std::size_t> vertices_done{0}, faces_done{0};
+  std::atomic<bool> stop{false};
+  std::thread thread;
+};
+
+MeshRowsAhead::MeshRowsAhead(const RawMesh& mesh) : impl_(std::make_unique<Impl>(mesh)) {
+  try {
+    impl_->thread = std::thread([impl = impl_.get()] { impl->run(); });
+  } catch (const std::system_error&) {  // no thread to be had: nothing is formatted ahead
+  }
+}
+
+void MeshRowsAhead::wait() {
+  if (impl_->thread.joinable()) impl_->thread.join();
+}
+
+MeshRowsAhead::~MeshRowsAhead() {
+  impl_->stop.store(true, std::memory_order_relaxed);
+  if (impl_->thread.joinable()) impl_->thread.join();
+}
+
+namespace {
+
+// The answer with its big arrays cut into spans of kBlockRows rows, formatted by `threads` threads (this one
+// and threads - 1 more), then joined in order: the same bytes as one thread writes, sooner. Spans of the
+// mesh's rows that `ahead` has formatted already are taken from it.
+std::string write_answer_in_parallel(const ordered_json& skeleton, bool pretty, const BigArrays& big, int threads,
+                                     MeshRowsAhead::Impl* ahead) {
   std::string frame;
   std::vector<BigPlace> places;
   write_answer(skeleton, 0, pretty, big, frame, &places);
@@ -459,17 +554,15 @@ std::string write_answer_in_parallel(const ordered_json& skeleton, bool pretty, 
     std::size_t begin, end;
     std::string text;
   };
-  // About 4 spans per thread over all rows, so that threads finishing early take more.
-  std::size_t total_rows = 0;
-  for (const BigPlace& p : places) total_rows += big.rows(p.kind);
-  const std::size_t span_rows = total_rows / (4 * static_cast<std::size_t>(threads)) + 1;
+  // Many spans per thread, so that threads finishing early take more.
   std::vector<Span> spans;
   for (const BigPlace& p : places)
-    for (std::size_t b = 0, n = big.rows(p.kind); b < n; b += span_rows) spans.push_back({&p, b, std::min(n, b + span_rows), {}});
+    for (std::size_t b = 0, n = big.rows(p.kind); b < n; b += kBlockRows) spans.push_back({&p, b, std::min(n, b + kBlockRows), {}});
   std::atomic<std::size_t> next{0};
   auto work = [&] {
     for (std::size_t i; (i = next.fetch_add(1)) < spans.size();) {
       Span& s = spans[i];
+      if (ahead && !pretty && ahead->take(s.place->kind, s.begin, s.end, big.r, s.text)) continue;
       s.text.reserve(64 * (s.end - s.begin));
       big.span(s.place->kind, s.begin, s.end, s.place->depth, pretty, s.text);
     }
@@ -529,14 +622,15 @@ std::optional<ParametrizeRequest> parametrize_request_from_text(std::string_view
   return request;
 }
 
-std::string parametrize_result_to_text(const lipmap::ParametrizeResult& r, bool pretty, int threads) {
+std::string parametrize_result_to_text(const lipmap::ParametrizeResult& r, bool pretty, int threads,
+                                      MeshRowsAhead* ahead) {
   const ordered_json skeleton = result_json(r, false);
   const ordered_json& mesh = skeleton["mesh"];
   const BigArrays big{r, &mesh["vertices"], &mesh["faces"], &skeleton["uv"], &skeleton["inserted"]};
   // More threads pay off only for big answers (a thread's start and the join's copy cost about 0.1 ms + 1 ms
   // per 5 MB of text).
-  if (threads > 1 && r.map.vertices.size() + r.map.faces.size() + r.map.uv.size() >= kParallelAnswerRows)
-    return write_answer_in_parallel(skeleton, pretty, big, threads);
+  if ((threads > 1 || ahead) && r.map.vertices.size() + r.map.faces.size() + r.map.uv.size() >= kParallelAnswerRows)
+    return write_answer_in_parallel(skeleton, pretty, big, threads, ahead ? ahead->impl_.get() : nullptr);
   std::string out;
   // About what the numbers take (shortest doubles are mostly 17 to 20 characters), to grow the text once
   // or twice rather than many times.

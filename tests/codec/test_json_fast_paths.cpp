@@ -122,6 +122,65 @@ TEST(JsonFastPaths, AnswerWrittenOnSeveralThreadsIsTheDomDumpByteForByte) {
   }
 }
 
+// The mesh's rows formatted ahead from the request (MeshRowsAhead) are used only where the answer holds the
+// request's rows unchanged: whatever the answer did to them (nothing, a vertex moved by a bit, -0 for +0,
+// vertices or faces added, faces renumbered, a request with a quad), its text is the DOM's dump. With the
+// ahead thread finished first (every block ready) and not (the answer races it).
+TEST(JsonFastPaths, AnswerWithTheMeshFormattedAheadIsTheDomDumpByteForByte) {
+  std::mt19937_64 rng(43);
+  int cases = 0;
+  for (int round = 0; round < 12; ++round) {
+    const std::size_t nv = codec::kParallelAnswerRows / 3 + rng() % 20000, nf = codec::kParallelAnswerRows / 3 + rng() % 20000;
+    lipmap::ParametrizeResult r = random_result(rng, nv, nf, 0);
+    lipmap::RawMesh request;
+    request.vertices = r.map.vertices;
+    for (const lipmap::Triangle& t : r.map.faces) request.faces.push_back(t);
+    switch (round % 6) {
+      case 0: break;  // the answer's mesh is the request's
+      case 1: {       // one vertex moved by one bit, one zero's sign changed
+        double& x = r.map.vertices[rng() % nv].y;
+        x = std::nextafter(x, 1e300);
+        request.vertices[rng() % nv].z = 0.0;
+        r.map.vertices[rng() % nv].z = -0.0;
+        break;
+      }
+      case 2:  // vertices and faces inserted (a refined mesh), one face renumbered
+        for (int k = 0; k < 9000; ++k) r.map.vertices.push_back({any_double(rng), any_double(rng), any_double(rng)});
+        for (int k = 0; k < 5000; ++k) r.map.faces.push_back({k, k + 1, k + 2});
+        r.map.faces[rng() % nf][1] += 1;
+        r.map.uv.resize(r.map.vertices.size(), {0.5, -0.25});
+        break;
+      case 3:  // a request with fewer vertices and faces than its answer, not ending on a block's edge
+        request.vertices.resize(nv - 1);
+        request.faces.pop_back();
+        break;
+      case 4:  // a quad among the request's faces: the faces are never taken
+        request.faces.replace(rng() % nf, {1, 2, 3, 4});
+        break;
+      default:  // more rows in the request than in the answer
+        request.vertices.push_back({1, 2, 3});
+        request.faces.push_back({0, 1, 2});
+        break;
+    }
+    const std::string expected = codec::dump(codec::parametrize_result_to_json(r));
+    for (bool finished_first : {true, false}) {
+      for (int threads : {1, 2}) {
+        codec::MeshRowsAhead ahead(request);
+        if (finished_first) ahead.wait();
+        ASSERT_EQ(first_difference(codec::parametrize_result_to_text(r, false, threads, &ahead), expected), "")
+            << "round " << round << ", " << threads << " threads" << (finished_first ? ", finished first" : "");
+        ++cases;
+      }
+    }
+    // Pretty text never takes the compact rows.
+    codec::MeshRowsAhead ahead(request);
+    ahead.wait();
+    ASSERT_EQ(first_difference(codec::parametrize_result_to_text(r, true, 2, &ahead),
+                               codec::dump(codec::parametrize_result_to_json(r), true)), "") << "round " << round;
+  }
+  EXPECT_EQ(cases, 48);
+}
+
 // ---- requests ----------------------------------------------------------------------------------------
 
 std::string number_text(std::mt19937_64& rng, double d) {
