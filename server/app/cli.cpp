@@ -263,7 +263,7 @@ int map_command(const MapArgs& args, std::ostream& out, std::ostream& err) {
       };
     // The second core formats the mesh's rows of a big JSON answer while the engine maps it.
     std::optional<codec::MeshRowsAhead> ahead;
-    if (out_ext == "json" && !args.pretty && threads > 1 && mesh.vertices.size() + mesh.faces.size() >= codec::kParallelAnswerRows)
+    if (out_ext == "json" && !args.pretty && threads > 1 && codec::MeshRowsAhead::pays_off(mesh))
       ahead.emplace(mesh);
     ParametrizeResult result;
     try {

@@ -1,4 +1,5 @@
 // The lipmap binary: subcommands classify / map / serve over the same engine (see server/app/cli.h).
+#include <sys/auxv.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -23,16 +24,24 @@ namespace {
 //   about 100 MB afresh (the body's arrays, the engine's, the answer's text), each 4 KiB page a fault of its
 //   own otherwise: reading that job's body took 20-39 ms in the service, 13-16 ms with them.
 void start_with_settings(char** argv) {
+  // Once only: a process the kernel runs in secure mode (setuid, file capabilities) has GLIBC_TUNABLES
+  // cleaned, so the settings could never be seen as made.
+  if (std::getenv("LIPMAP_STARTED_AGAIN") != nullptr) {
+    unsetenv("LIPMAP_STARTED_AGAIN");
+    return;
+  }
+  if (getauxval(AT_SECURE) != 0) return;
   bool changed = false;
   if (std::getenv("OPENBLAS_NUM_THREADS") == nullptr) changed |= setenv("OPENBLAS_NUM_THREADS", "1", 1) == 0;
   const char* tunables = std::getenv("GLIBC_TUNABLES");
   if (tunables == nullptr) {
     changed |= setenv("GLIBC_TUNABLES", "glibc.malloc.hugetlb=1", 1) == 0;
   } else if (std::strstr(tunables, "glibc.malloc.hugetlb") == nullptr) {
-    const std::string both = std::string(tunables) + (*tunables ? ":" : "") + "glibc.malloc.hugetlb=1";
+    const std::string own(tunables);
+    const std::string both = own + (own.empty() || own.back() == ':' ? "" : ":") + "glibc.malloc.hugetlb=1";
     changed |= setenv("GLIBC_TUNABLES", both.c_str(), 1) == 0;
   }
-  if (changed) execv("/proc/self/exe", argv);
+  if (changed && setenv("LIPMAP_STARTED_AGAIN", "1", 1) == 0) execv("/proc/self/exe", argv);
 }
 
 }  // namespace

@@ -151,11 +151,14 @@ inline constexpr std::size_t kParallelAnswerRows = 50'000;
 // answer (the refined mesh keeps the original vertices first, same index and position, and every face when
 // nothing was refined). parametrize_result_to_text(result, false, threads, &ahead) takes each finished block
 // of rows the answer holds unchanged (compared bit for bit) instead of formatting it again: the same bytes,
-// sooner. `mesh` must outlive this object; its destructor stops the thread (within one block) and waits.
+// sooner; the writer tells the thread to stop (after its block in progress) and formats the rest itself. Use
+// each object for one answer. `mesh` must outlive this object; its destructor stops the thread and waits.
 class MeshRowsAhead {
 public:
   explicit MeshRowsAhead(const RawMesh& mesh);
   ~MeshRowsAhead();
+  // Whether a job's answer is big enough for it (kParallelAnswerRows).
+  static bool pays_off(const RawMesh& mesh);
   // Waits until every block is formatted (or the thread gave up).
   void wait();
   MeshRowsAhead(const MeshRowsAhead&) = delete;

@@ -7,6 +7,8 @@
 #include <cmath>
 #include <cstring>
 #include <exception>
+#include <mutex>
+#include <new>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -48,7 +50,7 @@ public:
   // threads > 1: the mesh's first big array (its vertices or its faces, whichever the body gives first) is
   // read by a helper thread with a parser of its own while this one reads the rest; each takes about half.
   RequestReader(ParametrizeRequest& out, int threads) : out_(out), threads_(threads) {}
-  ~RequestReader() { join_helper(); }
+  ~RequestReader() { wait_for_helper(); }
 
   // False: not a plain body (the DOM path judges it). The whole text is read: nothing may follow the object.
   bool read(std::string_view text, std::size_t padding) {
@@ -62,6 +64,11 @@ public:
       view = *copy;
     }
     buffer_end_ = view.data() + view.capacity();
+    // Whichever way this function ends, the helper is done before the text it reads (`copy`) is freed.
+    struct WaitForHelper {
+      RequestReader& reader;
+      ~WaitForHelper() { reader.wait_for_helper(); }
+    } wait_for_helper_on_exit{*this};
     od::parser parser;
     od::document doc;
     od::object root;
@@ -81,7 +88,8 @@ public:
   unsigned seen() const { return seen_; }
 
   static constexpr unsigned kMesh = 1, kBoundary = 2, kOptions = 4, kVertices = 8, kFaces = 16, kPositions = 32,
-                            kBoundaryVertices = 64, kRotation = 128;
+                            kBoundaryVertices = 64, kRotation = 128,
+                            kHandedVertices = 256;  // the helper reads the vertices (else the faces)
 
 private:
   // Each member this reader fills may come once; a repeated one is for the DOM to report.
@@ -127,7 +135,10 @@ private:
     return members(mesh, [&](std::string_view key, od::value v) {
       if (key == "vertices") {
         if (!first(kVertices)) return false;
-        if (can_hand_off()) return hand_off(v, [](od::document& d, ParametrizeRequest& into) { return vertices(d, into); });
+        if (can_hand_off()) {
+          seen_ |= kHandedVertices;
+          return hand_off(v, [](od::document& d, ParametrizeRequest& into) { return vertices(d, into); });
+        }
         return vertices(v, out_);
       }
       if (key == "faces") {
@@ -147,6 +158,15 @@ private:
   // ---- the helper thread -------------------------------------------------------------------------------
   bool can_hand_off() const { return threads_ > 1 && !helper_.joinable() && !helper_failed_; }
 
+  // Reads the array `text` (with `room` readable bytes from its start) as a document of its own.
+  template <class Read>
+  static bool read_alone(std::string_view text, std::size_t room, Read read, ParametrizeRequest& into) {
+    od::parser parser;
+    od::document doc;
+    return !parser.iterate(simdjson::padded_string_view(text.data(), text.size(), room)).get(doc) && read(doc, into) &&
+           at_end(doc);
+  }
+
   // The array v cut out as text (the main parser skips it) and read by read(document, into) on a helper
   // thread, into a request of its own that join_helper moves into out_. The text is read in place: what
   // follows it in the buffer (the rest of the body and its padding) is the padding simdjson needs.
@@ -159,32 +179,32 @@ private:
     try {
       helper_ = std::thread([this, text, room, read] {
         try {
-          od::parser parser;
-          od::document doc;
-          helper_ok_ = !parser.iterate(simdjson::padded_string_view(text.data(), text.size(), room)).get(doc) &&
-                       read(doc, helper_out_) && at_end(doc);
+          helper_ok_ = read_alone(text, room, read, helper_out_);
         } catch (...) {
           helper_error_ = std::current_exception();
         }
       });
     } catch (const std::system_error&) {  // no thread to be had: read it here
       helper_failed_ = true;
-      od::parser parser;
-      od::document doc;
-      return !parser.iterate(simdjson::padded_string_view(text.data(), text.size(), room)).get(doc) &&
-             read(doc, out_) && at_end(doc);
+    } catch (const std::bad_alloc&) {
+      helper_failed_ = true;
     }
-    return true;
+    return helper_failed_ ? read_alone(text, room, read, out_) : true;
   }
 
-  // Waits for the helper (if any) and takes its rows; false when it refused its part.
+  void wait_for_helper() noexcept {
+    if (helper_.joinable()) helper_.join();
+  }
+
+  // Waits for the helper (if any) and takes its rows (the main reader never fills the array it handed off);
+  // false when it refused its part.
   bool join_helper() {
     if (!helper_.joinable()) return true;
     helper_.join();
     if (helper_error_) std::rethrow_exception(std::exchange(helper_error_, nullptr));
     if (!helper_ok_) return false;
-    if (!helper_out_.mesh.vertices.empty()) out_.mesh.vertices = std::move(helper_out_.mesh.vertices);
-    if (!helper_out_.mesh.faces.empty()) out_.mesh.faces = std::move(helper_out_.mesh.faces);
+    if (seen_ & kHandedVertices) out_.mesh.vertices = std::move(helper_out_.mesh.vertices);
+    else out_.mesh.faces = std::move(helper_out_.mesh.faces);
     return true;
   }
 
@@ -473,6 +493,7 @@ struct MeshRowsAhead::Impl {
     try {
       for (std::size_t k = 0; k < vertex_blocks.size() && !stop.load(std::memory_order_relaxed); ++k) {
         const std::size_t b = k * kBlockRows, e = std::min(mesh.vertices.size(), b + kBlockRows);
+        vertex_blocks[k].reserve(64 * (e - b));
         BigArrays::span(b, e, 0, false, vertex_blocks[k], [&](std::size_t i, char* p, std::string_view sep) {
           return put_vertex(p, mesh.vertices[i], sep);
         });
@@ -482,6 +503,7 @@ struct MeshRowsAhead::Impl {
         const std::size_t b = k * kBlockRows, e = std::min(mesh.faces.size(), b + kBlockRows);
         for (std::size_t f = b; f < e; ++f)
           if (mesh.faces[f].size() != 3) return;  // not a mesh the engine maps
+        face_blocks[k].reserve(24 * (e - b));
         BigArrays::span(b, e, 0, false, face_blocks[k], [&](std::size_t i, char* p, std::string_view sep) {
           const FaceList::ConstFace f = mesh.faces[i];
           return put_face(p, f[0], f[1], f[2], sep);
@@ -523,10 +545,15 @@ struct MeshRowsAhead::Impl {
   std::thread thread;
 };
 
+bool MeshRowsAhead::pays_off(const RawMesh& mesh) {
+  return mesh.vertices.size() + mesh.faces.size() >= kParallelAnswerRows;
+}
+
 MeshRowsAhead::MeshRowsAhead(const RawMesh& mesh) : impl_(std::make_unique<Impl>(mesh)) {
   try {
     impl_->thread = std::thread([impl = impl_.get()] { impl->run(); });
   } catch (const std::system_error&) {  // no thread to be had: nothing is formatted ahead
+  } catch (const std::bad_alloc&) {
   }
 }
 
@@ -559,18 +586,30 @@ std::string write_answer_in_parallel(const ordered_json& skeleton, bool pretty, 
   for (const BigPlace& p : places)
     for (std::size_t b = 0, n = big.rows(p.kind); b < n; b += kBlockRows) spans.push_back({&p, b, std::min(n, b + kBlockRows), {}});
   std::atomic<std::size_t> next{0};
+  std::mutex error_mutex;
+  std::exception_ptr error;
   auto work = [&] {
-    for (std::size_t i; (i = next.fetch_add(1)) < spans.size();) {
-      Span& s = spans[i];
-      if (ahead && !pretty && ahead->take(s.place->kind, s.begin, s.end, big.r, s.text)) continue;
-      s.text.reserve(64 * (s.end - s.begin));
-      big.span(s.place->kind, s.begin, s.end, s.place->depth, pretty, s.text);
+    try {
+      for (std::size_t i; (i = next.fetch_add(1)) < spans.size();) {
+        Span& s = spans[i];
+        if (ahead && !pretty && ahead->take(s.place->kind, s.begin, s.end, big.r, s.text)) continue;
+        s.text.reserve(64 * (s.end - s.begin));
+        big.span(s.place->kind, s.begin, s.end, s.place->depth, pretty, s.text);
+      }
+    } catch (...) {  // out of memory: the others stop at their next span, and the caller gets the error
+      next = spans.size();
+      const std::lock_guard<std::mutex> lock(error_mutex);
+      if (!error) error = std::current_exception();
     }
   };
   std::vector<std::thread> helpers;
-  for (int t = 1; t < threads; ++t) helpers.emplace_back(work);
+  try {
+    for (int t = 1; t < threads; ++t) helpers.emplace_back(work);
+  } catch (const std::exception&) {  // no more threads to be had: those started and this one do the work
+  }
   work();
   for (std::thread& t : helpers) t.join();
+  if (error) std::rethrow_exception(error);
   std::size_t size = frame.size();
   for (const Span& s : spans) size += s.text.size();
   std::string out;
@@ -598,7 +637,9 @@ std::size_t pad_for_reading(std::string& text) {
 std::optional<ParametrizeRequest> parametrize_request_from_text(std::string_view text, std::size_t padding,
                                                                 int threads) {
   ParametrizeRequest big;
-  RequestReader reader(big, threads);
+  // A thread's start pays off only for a big body.
+  constexpr std::size_t kParallelReadBytes = std::size_t(1) << 20;
+  RequestReader reader(big, text.size() >= kParallelReadBytes ? threads : 1);
   if (!reader.read(text, padding)) return std::nullopt;
   // The small members through the typed readers, with empty big arrays where the body had them, so that
   // a missing member is reported as before.
@@ -629,6 +670,8 @@ std::string parametrize_result_to_text(const lipmap::ParametrizeResult& r, bool 
   const BigArrays big{r, &mesh["vertices"], &mesh["faces"], &skeleton["uv"], &skeleton["inserted"]};
   // More threads pay off only for big answers (a thread's start and the join's copy cost about 0.1 ms + 1 ms
   // per 5 MB of text).
+  // What the ahead thread has not formatted yet, the writer formats itself: the thread stops at its block.
+  if (ahead) ahead->impl_->stop.store(true, std::memory_order_relaxed);
   if ((threads > 1 || ahead) && r.map.vertices.size() + r.map.faces.size() + r.map.uv.size() >= kParallelAnswerRows)
     return write_answer_in_parallel(skeleton, pretty, big, threads, ahead ? ahead->impl_.get() : nullptr);
   std::string out;

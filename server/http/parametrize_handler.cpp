@@ -158,15 +158,14 @@ Answer post_parametrize(Service& service, const httplib::Request& req) {
   return service.run_sync(InputKind::parametrize, [p, hooks, answer_format, &metrics, &svc](const CancelToken& token) {
     apply_hooks(hooks, token);
     // A job alone on the machine: the idle core formats the mesh's rows of a big JSON answer meanwhile.
-    const int threads = svc.answer_threads();
     std::optional<codec::MeshRowsAhead> ahead;
-    if (!answer_format && threads > 1 && p.request->mesh.vertices.size() + p.request->mesh.faces.size() >= codec::kParallelAnswerRows)
+    if (!answer_format && svc.answer_threads() > 1 && codec::MeshRowsAhead::pays_off(p.request->mesh))
       ahead.emplace(p.request->mesh);
     // The answer's text is this request's alone: it is moved, not copied, into the response (middleware.cpp).
     const std::shared_ptr<const ParametrizeResult> result = map_request(*p.request, token, {}, metrics);
     Answer a;
     if (answer_format) a = gltf_answer(p.asset, *result, *answer_format);
-    else a.body = codec::parametrize_result_to_text(*result, false, threads, ahead ? &*ahead : nullptr);
+    else a.body = codec::parametrize_result_to_text(*result, false, svc.answer_threads(), ahead ? &*ahead : nullptr);
     a.engine_ms = result->timings.total;
     // The request and the result are freed once the answer is out, not before its first byte.
     a.keep_until_sent = std::make_shared<const std::pair<std::shared_ptr<const codec::ParametrizeRequest>,

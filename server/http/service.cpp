@@ -122,15 +122,16 @@ Clock::time_point Service::deadline_from_arrival() const {
   return start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(config.deadline_seconds));
 }
 
-int Service::answer_threads() const {
+// 2 when the machine has a second core and the pool has at most `own` busy workers (the caller's job) and
+// nothing waiting, else 1.
+int Service::spare_threads(int own) const {
   static const unsigned cores = std::thread::hardware_concurrency();
-  return cores >= 2 && pool.busy() <= 1 && pool.queue_depth() == 0 ? 2 : 1;
+  return cores >= 2 && pool.busy() <= static_cast<std::size_t>(own) && pool.queue_depth() == 0 ? 2 : 1;
 }
 
-int Service::read_threads() const {
-  static const unsigned cores = std::thread::hardware_concurrency();
-  return cores >= 2 && pool.busy() == 0 && pool.queue_depth() == 0 ? 2 : 1;
-}
+int Service::answer_threads() const { return spare_threads(1); }
+
+int Service::read_threads() const { return spare_threads(0); }
 
 TestHooks Service::hooks_of(const httplib::Request& req) const {
   TestHooks h;

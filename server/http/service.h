@@ -74,6 +74,7 @@ public:
   // Threads for reading a request's body on its HTTP thread: 2 when the pool is idle and the machine has a
   // second core, else 1.
   int read_threads() const;
+  int spare_threads(int own) const;
   TestHooks hooks_of(const httplib::Request& req) const;
 
   // Runs `work` on the pool and waits for its answer (synchronous endpoints); 504 when the deadline
