@@ -401,10 +401,12 @@ MeshResult bench_mesh(const Mesh& m, int runs, double budget_s, bool stages) {
                 cell_ms(r.other).c_str(),
                 r.rss_kb / 1024.0, cell_ms(cgal_ms).c_str(), ratio);
     if (stages)
-      std::printf("  stages ms: validate %s, classify %s, target_mesh %s (%lld vertices), intermediate_maps %s, "
-                  "compose %s, refine %s, verify %s, quality %s, untangle %s, optimize %s; mean K %.4f, max K %.3f\n",
+      std::printf("  stages ms: validate %s, classify %s, target_mesh %s (%lld vertices), intermediate_maps %s "
+                  "(source %s, target %s), compose %s, refine %s, verify %s, quality %s, untangle %s, optimize %s; "
+                  "mean K %.4f, max K %.3f\n",
                   cell_ms(r.stage[0]).c_str(), cell_ms(r.stage[1]).c_str(), cell_ms(r.stage[2]).c_str(),
-                  r.target_vertices, cell_ms(r.stage[3]).c_str(), cell_ms(r.stage[4]).c_str(),
+                  r.target_vertices, cell_ms(r.stage[3]).c_str(), r.source_solution.c_str(), r.target_solution.c_str(),
+                  cell_ms(r.stage[4]).c_str(),
                   cell_ms(r.stage[5]).c_str(), cell_ms(r.stage[6]).c_str(), cell_ms(r.stage[7]).c_str(),
                   cell_ms(r.stage[8]).c_str(), cell_ms(r.stage[9]).c_str(), r.mean_k, r.max_k);
     std::fflush(stdout);
