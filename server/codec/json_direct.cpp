@@ -88,8 +88,7 @@ public:
   unsigned seen() const { return seen_; }
 
   static constexpr unsigned kMesh = 1, kBoundary = 2, kOptions = 4, kVertices = 8, kFaces = 16, kPositions = 32,
-                            kBoundaryVertices = 64, kRotation = 128,
-                            kHandedVertices = 256;  // the helper reads the vertices (else the faces)
+                            kBoundaryVertices = 64, kRotation = 128;
 
 private:
   // Each member this reader fills may come once; a repeated one is for the DOM to report.
@@ -133,19 +132,10 @@ private:
     od::object mesh;
     if (value.get_object().get(mesh)) return false;
     return members(mesh, [&](std::string_view key, od::value v) {
-      if (key == "vertices") {
-        if (!first(kVertices)) return false;
-        if (can_hand_off()) {
-          seen_ |= kHandedVertices;
-          return hand_off(v, [](od::document& d, ParametrizeRequest& into) { return vertices(d, into); });
-        }
-        return vertices(v, out_);
-      }
-      if (key == "faces") {
-        if (!first(kFaces)) return false;
-        if (can_hand_off()) return hand_off(v, [](od::document& d, ParametrizeRequest& into) { return faces(d, into); });
-        return faces(v, out_);
-      }
+      if (key == "vertices")
+        return first(kVertices) && big_array(v, [](auto&& d, ParametrizeRequest& into) { return vertices(d, into); });
+      if (key == "faces")
+        return first(kFaces) && big_array(v, [](auto&& d, ParametrizeRequest& into) { return faces(d, into); });
       return false;
     });
   }
@@ -156,7 +146,12 @@ private:
   }
 
   // ---- the helper thread -------------------------------------------------------------------------------
-  bool can_hand_off() const { return threads_ > 1 && !helper_.joinable() && !helper_failed_; }
+  // A big array read by read(value or document, into): on the helper thread when it is free, else here.
+  template <class Read>
+  bool big_array(od::value v, Read read) {
+    if (threads_ > 1 && !helper_.joinable() && !helper_failed_) return hand_off(v, read);
+    return read(v, out_);
+  }
 
   // Reads the array `text` (with `room` readable bytes from its start) as a document of its own.
   template <class Read>
@@ -196,15 +191,16 @@ private:
     if (helper_.joinable()) helper_.join();
   }
 
-  // Waits for the helper (if any) and takes its rows (the main reader never fills the array it handed off);
-  // false when it refused its part.
+  // Waits for the helper (if any) and takes its rows; false when it refused its part. The helper fills only
+  // the array handed to it and this reader never fills that one, so the helper's non-empty array is its part
+  // (an empty one leaves out_'s empty as it is).
   bool join_helper() {
     if (!helper_.joinable()) return true;
     helper_.join();
     if (helper_error_) std::rethrow_exception(std::exchange(helper_error_, nullptr));
     if (!helper_ok_) return false;
-    if (seen_ & kHandedVertices) out_.mesh.vertices = std::move(helper_out_.mesh.vertices);
-    else out_.mesh.faces = std::move(helper_out_.mesh.faces);
+    if (!helper_out_.mesh.vertices.empty()) out_.mesh.vertices = std::move(helper_out_.mesh.vertices);
+    if (!helper_out_.mesh.faces.empty()) out_.mesh.faces = std::move(helper_out_.mesh.faces);
     return true;
   }
 
@@ -330,6 +326,15 @@ char* put_vertex(char* p, const Point3& q, std::string_view sep) {
   return p;
 }
 
+char* put_uv(char* p, const Point2& q, std::string_view sep) {
+  *p++ = '[';
+  p = put_double(p, q.x);
+  p = put_text(p, sep);
+  p = put_double(p, q.y);
+  *p++ = ']';
+  return p;
+}
+
 template <class Index>
 char* put_face(char* p, Index a, Index b, Index c, std::string_view sep) {
   *p++ = '[';
@@ -385,13 +390,7 @@ struct BigArrays {
         return put_face(p, t[0], t[1], t[2], sep);
       });
       case kUv: return span(begin, end, depth, pretty, out, [&](std::size_t i, char* p, std::string_view sep) {
-        const Point2& q = r.map.uv[i];
-        *p++ = '[';
-        p = put_double(p, q.x);
-        p = put_text(p, sep);
-        p = put_double(p, q.y);
-        *p++ = ']';
-        return p;
+        return put_uv(p, r.map.uv[i], sep);
       });
       case kInserted: {
         const std::string member(2 * (depth + 2), ' '), close(2 * (depth + 1), ' ');
@@ -491,27 +490,38 @@ struct MeshRowsAhead::Impl {
   // Block after block, the vertices' then the faces' (compact text, as the answer's spans), until told to stop.
   void run() {
     try {
-      for (std::size_t k = 0; k < vertex_blocks.size() && !stop.load(std::memory_order_relaxed); ++k) {
-        const std::size_t b = k * kBlockRows, e = std::min(mesh.vertices.size(), b + kBlockRows);
-        vertex_blocks[k].reserve(64 * (e - b));
-        BigArrays::span(b, e, 0, false, vertex_blocks[k], [&](std::size_t i, char* p, std::string_view sep) {
-          return put_vertex(p, mesh.vertices[i], sep);
-        });
-        vertices_done.store(k + 1, std::memory_order_release);
-      }
-      for (std::size_t k = 0; k < face_blocks.size() && !stop.load(std::memory_order_relaxed); ++k) {
-        const std::size_t b = k * kBlockRows, e = std::min(mesh.faces.size(), b + kBlockRows);
+      const auto any_rows = [](std::size_t, std::size_t) { return true; };
+      const bool all_vertices = blocks(vertex_blocks, mesh.vertices.size(), 64, vertices_done, any_rows,
+                                       [&](std::size_t i, char* p, std::string_view sep) {
+                                         return put_vertex(p, mesh.vertices[i], sep);
+                                       });
+      if (!all_vertices) return;
+      const auto triangles = [&](std::size_t b, std::size_t e) {  // else not a mesh the engine maps
         for (std::size_t f = b; f < e; ++f)
-          if (mesh.faces[f].size() != 3) return;  // not a mesh the engine maps
-        face_blocks[k].reserve(24 * (e - b));
-        BigArrays::span(b, e, 0, false, face_blocks[k], [&](std::size_t i, char* p, std::string_view sep) {
-          const FaceList::ConstFace f = mesh.faces[i];
-          return put_face(p, f[0], f[1], f[2], sep);
-        });
-        faces_done.store(k + 1, std::memory_order_release);
-      }
+          if (mesh.faces[f].size() != 3) return false;
+        return true;
+      };
+      blocks(face_blocks, mesh.faces.size(), 24, faces_done, triangles, [&](std::size_t i, char* p, std::string_view sep) {
+        const FaceList::ConstFace f = mesh.faces[i];
+        return put_face(p, f[0], f[1], f[2], sep);
+      });
     } catch (...) {  // out of memory: the answer formats what is missing itself
     }
+  }
+
+  // The blocks of an array of `rows` rows (about `row_bytes` each) in order, each published in `done` once
+  // written; false at the first block `usable` refuses, or when told to stop.
+  template <class Usable, class Row>
+  bool blocks(std::vector<std::string>& texts, std::size_t rows, std::size_t row_bytes, std::atomic<std::size_t>& done,
+              Usable usable, Row row) {
+    for (std::size_t k = 0; k < texts.size(); ++k) {
+      const std::size_t b = k * kBlockRows, e = std::min(rows, b + kBlockRows);
+      if (stop.load(std::memory_order_relaxed) || !usable(b, e)) return false;
+      texts[k].reserve(row_bytes * (e - b));
+      BigArrays::span(b, e, 0, false, texts[k], row);
+      done.store(k + 1, std::memory_order_release);
+    }
+    return true;
   }
 
   // The text of rows [begin, end) of the answer's array `kind` moved into `out`, when a finished block holds
