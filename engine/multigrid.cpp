@@ -16,18 +16,89 @@ namespace {
 using Matrix = AggregationMultigrid::Matrix;
 using Block = AggregationMultigrid::Block;
 
-// Groups the unknowns of an M-matrix A into aggregates of strongly connected neighbours (Vanek, Mandel &
-// Brezina 1996, 3.1; j is strong for i when -a_ij >= theta sqrt(a_ii a_jj)): first whole neighbourhoods whose
+// Inside the solver the two right-hand sides are interleaved (x0 y0 x1 y1 ...): every gather of a neighbour
+// then reads both from one cache line. At 500k unknowns the vectors no longer fit the caches and the cycles
+// are bound by memory traffic.
+using Pairs = Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor>;
+
+// A level's operator (float values: the preconditioner only needs to be close to A's inverse, and 8 bytes an
+// entry instead of 12 is less memory traffic) or transfer (double: scaled to the coarse unit diagonals, its
+// entries may exceed float's range) in compressed columns.
+template <class Value>
+struct Compact {
+  std::vector<int> outer, inner;
+  std::vector<Value> value;
+  Compact(std::vector<int> outer_, std::vector<int> inner_, std::vector<Value> value_)
+      : outer(std::move(outer_)), inner(std::move(inner_)), value(std::move(value_)) {}
+  explicit Compact(const Matrix& m = Matrix()) : outer(m.outerIndexPtr(), m.outerIndexPtr() + m.outerSize() + 1),
+      inner(m.innerIndexPtr(), m.innerIndexPtr() + m.nonZeros()), value(m.valuePtr(), m.valuePtr() + m.nonZeros()) {
+    if (m.outerSize() == 0) outer.assign(1, 0);
+  }
+  int columns() const { return static_cast<int>(outer.size()) - 1; }
+  // out_j (+)= sum_i M_ij in_i for each column j (a gather: M^T in), for both interleaved right-hand sides;
+  // with dot (M square), also dot[c] += sum_j in_j out_j in the same pass (the conjugate gradients' p.Ap).
+  void gather(const double* in, double* out, bool add, double* dot = nullptr) const {
+    const int cols = columns();
+    for (int j = 0; j < cols; ++j) {
+      double s0 = 0, s1 = 0;
+      for (int k = outer[static_cast<std::size_t>(j)]; k < outer[static_cast<std::size_t>(j) + 1]; ++k) {
+        const double a = value[static_cast<std::size_t>(k)];
+        const std::size_t i = 2 * static_cast<std::size_t>(inner[static_cast<std::size_t>(k)]);
+        s0 += a * in[i];
+        s1 += a * in[i + 1];
+      }
+      if (add) {
+        out[2 * j] += s0;
+        out[2 * j + 1] += s1;
+      } else {
+        out[2 * j] = s0;
+        out[2 * j + 1] = s1;
+      }
+      if (dot) {
+        dot[0] += in[2 * j] * s0;
+        dot[1] += in[2 * j + 1] * s1;
+      }
+    }
+  }
+};
+
+// The M-matrix part of a symmetric A is never formed (at 500k unknowns a copy of A is 40 MB of fresh pages):
+// its off-diagonal entries are A's negative ones, its diagonal is A's plus the column's positive off-diagonal
+// entries (on a cotangent Laplacian, the negative weights of edges opposite obtuse angles), so that A's row
+// sums are kept. The aggregates and the prolongation are built from it, the coarse operators from A itself: on
+// a scanned 250k-triangle mesh the cycles needed drop from 39 (aggregating on |a_ij|) to 25.
+Eigen::VectorXd m_matrix_diagonal(const Matrix& A) {
+  Eigen::VectorXd out(A.cols());
+  for (int c = 0; c < A.outerSize(); ++c) {
+    double diagonal = 0, lumped = 0;
+    for (Matrix::InnerIterator it(A, c); it; ++it) {
+      if (it.row() == c) diagonal = it.value();
+      else if (it.value() > 0) lumped += it.value();
+    }
+    out[c] = diagonal + lumped;
+  }
+  return out;
+}
+
+// A's entry as the M-matrix part (with diagonal m_diag) has it, or 0 where that part has no entry (a
+// non-negative off-diagonal one): the loops below skip those.
+double m_entry(const Matrix::InnerIterator& it, Eigen::Index column, const Eigen::VectorXd& m_diag) {
+  if (it.row() == column) return m_diag[column];
+  return it.value() < 0 ? it.value() : 0.0;
+}
+
+// Groups the unknowns into aggregates of strongly connected neighbours in A's M-matrix part (Vanek, Mandel &
+// Brezina 1996, 3.1; j is strong for i when -m_ij >= theta sqrt(m_ii m_jj)): first whole neighbourhoods whose
 // members are all free, then every leftover joins the aggregate of its strongest neighbour, then what is
 // still left forms aggregates of its own. Returns the aggregate of each unknown.
-std::vector<int> aggregate(const Matrix& A, const Eigen::VectorXd& diag, double theta, int& count) {
+std::vector<int> aggregate(const Matrix& A, const Eigen::VectorXd& m_diag, double theta, int& count) {
   const int n = static_cast<int>(A.rows());
   const int* outer = A.outerIndexPtr();
   const int* inner = A.innerIndexPtr();
   const double* value = A.valuePtr();
   auto strong = [&](int i, int k) {
     const int j = inner[k];
-    return j != i && -value[k] >= theta * std::sqrt(diag[i] * diag[j]);
+    return j != i && value[k] < 0 && -value[k] >= theta * std::sqrt(m_diag[i] * m_diag[j]);
   };
   std::vector<int> agg(static_cast<std::size_t>(n), -1);
   count = 0;
@@ -65,30 +136,6 @@ std::vector<int> aggregate(const Matrix& A, const Eigen::VectorXd& diag, double 
     ++count;
   }
   return agg;
-}
-
-// The M-matrix part of a symmetric A: positive off-diagonal entries (on a cotangent Laplacian, the negative
-// weights of edges opposite obtuse angles) moved onto the diagonal, so that A's row sums are kept. The
-// aggregates and the prolongation are built from it, the coarse operators from A itself: on a scanned
-// 250k-triangle mesh the cycles needed drop from 39 (aggregating on |a_ij|) to 25.
-Matrix m_matrix_part(const Matrix& A) {
-  Matrix M = A;
-  const int n = static_cast<int>(M.cols());
-  for (int c = 0; c < n; ++c) {
-    double lumped = 0;
-    double* diagonal = nullptr;
-    for (Matrix::InnerIterator it(M, c); it; ++it) {
-      if (it.row() == c) {
-        diagonal = &it.valueRef();
-      } else if (it.value() > 0) {
-        lumped += it.value();
-        it.valueRef() = 0;
-      }
-    }
-    if (diagonal) *diagonal += lumped;
-  }
-  M.prune([](Eigen::Index, Eigen::Index, double v) { return v != 0.0; });  // the moved entries' zeros
-  return M;
 }
 
 // Scales the symmetric m to a unit diagonal, m <- S m S with S = diag(m_ii^-1/2), and returns S; false (m
@@ -164,58 +211,28 @@ Matrix compressed(int rows, int cols, const std::vector<int>& outer, const std::
   return out;
 }
 
-// X * Y by Gustavson's row-merge: each column of the product gathers Y's column entries' columns of X in a
-// dense accumulator (linear in the flops, unlike a product that sorts or masks whole columns).
-Matrix multiply(const Matrix& X, const Matrix& Y) {
-  const int rows = static_cast<int>(X.rows()), cols = static_cast<int>(Y.cols());
-  std::vector<double> acc(static_cast<std::size_t>(rows), 0.0);
-  std::vector<int> where(static_cast<std::size_t>(rows), -1);
-  std::vector<int> outer(static_cast<std::size_t>(cols) + 1, 0);
-  std::vector<int> inner;
-  std::vector<double> value;
-  inner.reserve(static_cast<std::size_t>(Y.nonZeros()) * 4);
-  value.reserve(static_cast<std::size_t>(Y.nonZeros()) * 4);
-  std::vector<int> touched;
-  for (int j = 0; j < cols; ++j) {
-    touched.clear();
-    for (Matrix::InnerIterator y(Y, j); y; ++y)
-      for (Matrix::InnerIterator x(X, y.row()); x; ++x) {
-        const int r = static_cast<int>(x.row());
-        if (where[static_cast<std::size_t>(r)] != j) {
-          where[static_cast<std::size_t>(r)] = j;
-          acc[static_cast<std::size_t>(r)] = 0.0;
-          touched.push_back(r);
-        }
-        acc[static_cast<std::size_t>(r)] += x.value() * y.value();
-      }
-    std::sort(touched.begin(), touched.end());
-    for (int r : touched) {
-      inner.push_back(r);
-      value.push_back(acc[static_cast<std::size_t>(r)]);
-    }
-    outer[static_cast<std::size_t>(j) + 1] = static_cast<int>(inner.size());
-  }
-  return compressed(rows, cols, outer, inner, value);
-}
-
-// R = P^T for the smoothed prolongation P = (I - omega D^-1 A) P0, P0(i, agg[i]) = tentative[i]: column i of
-// R is row i of P, which has tentative[i] (1 - omega a_ii / a_ii) at i's own aggregate and -omega a_ij / a_ii
-// tentative[j] at the aggregate of each neighbour j.
-Matrix smoothed_restriction(const Matrix& A, const Eigen::VectorXd& inv_diag, const std::vector<int>& agg,
-                            const Eigen::VectorXd& tentative, int count, double omega) {
+// R = P^T (count x n, by columns) for the smoothed prolongation P = (I - omega D^-1 M) P0 of A's M-matrix part
+// M (diagonal m_diag = D), P0(i, agg[i]) = tentative[i]: column i of R is row i of P, which has tentative[i]
+// (1 - omega m_ii / m_ii) at i's own aggregate and -omega m_ij / m_ii tentative[j] at the aggregate of each
+// neighbour j.
+Compact<double> smoothed_restriction(const Matrix& A, const Eigen::VectorXd& m_diag, const std::vector<int>& agg,
+                                     const Eigen::VectorXd& tentative, double omega) {
   const int n = static_cast<int>(A.rows());
   std::vector<int> outer(static_cast<std::size_t>(n) + 1, 0);
   std::vector<int> inner;
   std::vector<double> value;
-  inner.reserve(static_cast<std::size_t>(A.nonZeros()));
+  inner.reserve(static_cast<std::size_t>(A.nonZeros()));  // at most one entry per entry of M (diagonal included)
   value.reserve(static_cast<std::size_t>(A.nonZeros()));
   std::vector<std::pair<int, double>> row;
   for (int i = 0; i < n; ++i) {
     row.clear();
     row.emplace_back(agg[static_cast<std::size_t>(i)], tentative[i]);
+    const double inv_diag = 1.0 / m_diag[i];
     for (Matrix::InnerIterator it(A, i); it; ++it) {
+      const double m = m_entry(it, i, m_diag);
+      if (m == 0.0) continue;
       const auto j = it.row();
-      row.emplace_back(agg[static_cast<std::size_t>(j)], -omega * it.value() * inv_diag[i] * tentative[j]);
+      row.emplace_back(agg[static_cast<std::size_t>(j)], -omega * m * inv_diag * tentative[j]);
     }
     std::sort(row.begin(), row.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
     for (std::size_t k = 0; k < row.size();) {
@@ -227,54 +244,98 @@ Matrix smoothed_restriction(const Matrix& A, const Eigen::VectorXd& inv_diag, co
     }
     outer[static_cast<std::size_t>(i) + 1] = static_cast<int>(inner.size());
   }
-  return compressed(count, n, outer, inner, value);
+  return Compact<double>(std::move(outer), std::move(inner), std::move(value));
+}
+
+// The transpose (by columns, rows sorted) of X, which has `rows` rows: a counting sort by row.
+Compact<double> transposed(const Compact<double>& X, int rows) {
+  std::vector<int> outer(static_cast<std::size_t>(rows) + 1, 0);
+  for (int r : X.inner) ++outer[static_cast<std::size_t>(r) + 1];
+  for (std::size_t r = 0; r < static_cast<std::size_t>(rows); ++r) outer[r + 1] += outer[r];
+  std::vector<int> next(outer.begin(), outer.end() - 1);
+  std::vector<int> inner(X.inner.size());
+  std::vector<double> value(X.value.size());
+  for (int c = 0; c < X.columns(); ++c)
+    for (int k = X.outer[static_cast<std::size_t>(c)]; k < X.outer[static_cast<std::size_t>(c) + 1]; ++k) {
+      const int at = next[static_cast<std::size_t>(X.inner[static_cast<std::size_t>(k)])]++;
+      inner[static_cast<std::size_t>(at)] = c;
+      value[static_cast<std::size_t>(at)] = X.value[static_cast<std::size_t>(k)];
+    }
+  return Compact<double>(std::move(outer), std::move(inner), std::move(value));
+}
+
+// The Galerkin operator P^T A P from P (n x count, by columns) and R = P^T (by columns). Column j of A P is
+// gathered in a dense accumulator over the fine unknowns (Gustavson's row merge: linear in the flops, where a
+// product that sorts or masks whole columns is not), then R is applied to its entries (in the order they were
+// first touched: sorting them cost a fifth of the product) into a second accumulator over the aggregates. A P,
+// the largest product, is never stored.
+Matrix galerkin_product(const Matrix& A, const Compact<double>& P, const Compact<double>& R) {
+  const int n = static_cast<int>(A.rows()), count = P.columns();
+  std::vector<double> fine(static_cast<std::size_t>(n), 0.0), coarse(static_cast<std::size_t>(count), 0.0);
+  std::vector<int> fine_at(static_cast<std::size_t>(n), -1), coarse_at(static_cast<std::size_t>(count), -1);
+  std::vector<int> fine_touched, coarse_touched;
+  std::vector<int> outer(static_cast<std::size_t>(count) + 1, 0);
+  std::vector<int> inner;
+  std::vector<double> value;
+  for (int j = 0; j < count; ++j) {
+    fine_touched.clear();
+    for (int k = P.outer[static_cast<std::size_t>(j)]; k < P.outer[static_cast<std::size_t>(j) + 1]; ++k) {
+      const double p = P.value[static_cast<std::size_t>(k)];
+      for (Matrix::InnerIterator x(A, P.inner[static_cast<std::size_t>(k)]); x; ++x) {
+        const auto r = static_cast<std::size_t>(x.row());
+        if (fine_at[r] != j) {
+          fine_at[r] = j;
+          fine[r] = 0.0;
+          fine_touched.push_back(static_cast<int>(r));
+        }
+        fine[r] += x.value() * p;
+      }
+    }
+    coarse_touched.clear();
+    for (int r : fine_touched) {
+      const double ap = fine[static_cast<std::size_t>(r)];
+      for (int k = R.outer[static_cast<std::size_t>(r)]; k < R.outer[static_cast<std::size_t>(r) + 1]; ++k) {
+        const auto c = static_cast<std::size_t>(R.inner[static_cast<std::size_t>(k)]);
+        if (coarse_at[c] != j) {
+          coarse_at[c] = j;
+          coarse[c] = 0.0;
+          coarse_touched.push_back(static_cast<int>(c));
+        }
+        coarse[c] += R.value[static_cast<std::size_t>(k)] * ap;
+      }
+    }
+    std::sort(coarse_touched.begin(), coarse_touched.end());
+    for (int c : coarse_touched) {
+      inner.push_back(c);
+      value.push_back(coarse[static_cast<std::size_t>(c)]);
+    }
+    outer[static_cast<std::size_t>(j) + 1] = static_cast<int>(inner.size());
+  }
+  return compressed(count, count, outer, inner, value);
+}
+
+// c_ij = c_ji = (c_ij + c_ji) / 2 in place, for C with a symmetric pattern and each column's rows sorted: the
+// two triangles of a Galerkin product are summed in different orders, and its float copy must be exactly
+// symmetric. False when an entry has no mirror (P^T A P of a symmetric A always has one: compute() then
+// refuses the matrix rather than go on with a broken operator).
+bool symmetrize(Matrix& C) {
+  int* outer = C.outerIndexPtr();
+  const int* inner = C.innerIndexPtr();
+  double* value = C.valuePtr();
+  for (int c = 0; c < C.outerSize(); ++c)
+    for (int k = outer[c]; k < outer[c + 1]; ++k) {
+      const int r = inner[k];
+      if (r <= c) continue;
+      const int* mirror = std::lower_bound(inner + outer[r], inner + outer[r + 1], c);
+      if (mirror == inner + outer[r + 1] || *mirror != c) return false;
+      const double mean = 0.5 * (value[k] + value[mirror - inner]);
+      value[k] = mean;
+      value[mirror - inner] = mean;
+    }
+  return true;
 }
 
 }  // namespace
-
-// Inside the solver the two right-hand sides are interleaved (x0 y0 x1 y1 ...): every gather of a neighbour
-// then reads both from one cache line. At 500k unknowns the vectors no longer fit the caches and the cycles
-// are bound by memory traffic.
-using Pairs = Eigen::Matrix<double, Eigen::Dynamic, 2, Eigen::RowMajor>;
-
-// A level's operator (float values: the preconditioner only needs to be close to A's inverse, and 8 bytes an
-// entry instead of 12 is less memory traffic) or transfer (double: scaled to the coarse unit diagonals, its
-// entries may exceed float's range) in compressed columns.
-template <class Value>
-struct Compact {
-  std::vector<int> outer, inner;
-  std::vector<Value> value;
-  explicit Compact(const Matrix& m = Matrix()) : outer(m.outerIndexPtr(), m.outerIndexPtr() + m.outerSize() + 1),
-      inner(m.innerIndexPtr(), m.innerIndexPtr() + m.nonZeros()), value(m.valuePtr(), m.valuePtr() + m.nonZeros()) {
-    if (m.outerSize() == 0) outer.assign(1, 0);
-  }
-  int columns() const { return static_cast<int>(outer.size()) - 1; }
-  // out_j (+)= sum_i M_ij in_i for each column j (a gather: M^T in), for both interleaved right-hand sides;
-  // with dot (M square), also dot[c] += sum_j in_j out_j in the same pass (the conjugate gradients' p.Ap).
-  void gather(const double* in, double* out, bool add, double* dot = nullptr) const {
-    const int cols = columns();
-    for (int j = 0; j < cols; ++j) {
-      double s0 = 0, s1 = 0;
-      for (int k = outer[static_cast<std::size_t>(j)]; k < outer[static_cast<std::size_t>(j) + 1]; ++k) {
-        const double a = value[static_cast<std::size_t>(k)];
-        const std::size_t i = 2 * static_cast<std::size_t>(inner[static_cast<std::size_t>(k)]);
-        s0 += a * in[i];
-        s1 += a * in[i + 1];
-      }
-      if (add) {
-        out[2 * j] += s0;
-        out[2 * j + 1] += s1;
-      } else {
-        out[2 * j] = s0;
-        out[2 * j + 1] = s1;
-      }
-      if (dot) {
-        dot[0] += in[2 * j] * s0;
-        dot[1] += in[2 * j + 1] * s1;
-      }
-    }
-  }
-};
 
 template <class Value>
 std::vector<int> diagonal_positions(const Compact<Value>& A) {
@@ -429,17 +490,16 @@ bool AggregationMultigrid::compute(const Matrix& A) {
       l.inv_diag[static_cast<std::size_t>(i)] = 1.0 / static_cast<double>(static_cast<float>(diag[i]));
     if (n <= settings_.coarse_size || h.levels.size() >= 25) break;
 
-    const Matrix M = m_matrix_part(current);
-    const Eigen::VectorXd m_diag = M.diagonal();
+    const Eigen::VectorXd m_diag = m_matrix_diagonal(current);
     int count = 0;
-    const std::vector<int> agg = aggregate(M, m_diag, settings_.strength, count);
+    const std::vector<int> agg = aggregate(current, m_diag, settings_.strength, count);
     if (count >= n - n / 8) break;  // aggregation no longer coarsens: factor this level
     // Smoothed prolongation P = (I - omega D^-1 M) P0 (P0: 1 where unknown i is in aggregate j) with omega =
     // 4 / (3 rho(D^-1 M)); rho is bounded by Gershgorin's circles (an upper bound: a smaller, safe omega).
     double rho = 0;
     for (int c = 0; c < n; ++c) {
       double row = 0;
-      for (Matrix::InnerIterator it(M, c); it; ++it) row += std::abs(it.value());
+      for (Matrix::InnerIterator it(current, c); it; ++it) row += std::abs(m_entry(it, c, m_diag));
       rho = std::max(rho, row / m_diag[c]);
     }
     // The tentative prolongation holds the near null vector on each aggregate, normalized (Vanek et al. 3.2);
@@ -449,22 +509,23 @@ bool AggregationMultigrid::compute(const Matrix& A) {
     norm = norm.cwiseSqrt();
     Eigen::VectorXd tentative(n);
     for (int i = 0; i < n; ++i) tentative[i] = near_null[i] / norm[agg[static_cast<std::size_t>(i)]];
-    Matrix R = smoothed_restriction(M, m_diag.cwiseInverse(), agg, tentative, count, 4.0 / (3.0 * rho));
-    Matrix coarse = multiply(R, multiply(current, Matrix(R.transpose())));  // Galerkin: P^T A P
-    // Its two triangles are summed in different orders: made exactly symmetric, so that its float copy is too.
-    coarse = 0.5 * (coarse + Matrix(coarse.transpose()));
+    Compact<double> R = smoothed_restriction(current, m_diag, agg, tentative, 4.0 / (3.0 * rho));
+    Compact<double> P = transposed(R, count);
+    Matrix coarse = galerkin_product(current, P, R);
+    if (!symmetrize(coarse)) return false;
     // Scaled to a unit diagonal as the finest level is (S_c P^T A P S_c with P's columns scaled by S_c): an
     // aggregate joined to the rest by tiny weights only has a tiny diagonal entry, which float would lose.
     Eigen::VectorXd coarse_scale;
     if (!scale_to_unit_diagonal(coarse, coarse_scale)) return false;
-    for (int c = 0; c < R.outerSize(); ++c)
-      for (Matrix::InnerIterator it(R, c); it; ++it) it.valueRef() *= coarse_scale[it.row()];
+    for (std::size_t k = 0; k < R.inner.size(); ++k) R.value[k] *= coarse_scale[R.inner[k]];
+    for (int j = 0; j < count; ++j)
+      for (int k = P.outer[static_cast<std::size_t>(j)]; k < P.outer[static_cast<std::size_t>(j) + 1]; ++k)
+        P.value[static_cast<std::size_t>(k)] *= coarse_scale[j];
     near_null = norm.cwiseQuotient(coarse_scale);  // in the coarse level's scaled unknowns
-    coarse.makeCompressed();
     l.A = Compact<float>(current);
     l.diagonal = diagonal_positions(l.A);
-    l.P = Compact<double>(Matrix(R.transpose()));
-    l.R = Compact<double>(R);
+    l.P = std::move(P);
+    l.R = std::move(R);
     current = std::move(coarse);
   }
   stats_.levels = static_cast<int>(h.levels.size());
