@@ -2,7 +2,7 @@
 // parameterization of the same mesh for comparison.
 //
 //   bench_pipeline [--quick] [--runs N] [--mesh NAME]... [--data DIR] [--budget-s S] [--large[=N]]
-//                  [--large-mesh NAME] [--no-peer] [--optimize NAME]
+//                  [--large-mesh NAME] [--rounds R] [--no-peer] [--optimize NAME]
 //
 // --no-peer: CGAL's Tutte is not run (ratio "-"): for profiling runs of lipmap alone (CGAL takes over a minute
 // at 1M triangles). --optimize NAME (none, mips, symmetric_dirichlet; default the engine's, mips): the optimize
@@ -11,7 +11,11 @@
 // --large[=N] (N = 1 or 2, default 2): instead of the catalog, rows at ~250k (N >= 1) and ~1M (N = 2) triangles,
 // made here by 1-to-4 subdivision (each triangle into four at its edge midpoints) of one shared mesh
 // (--large-mesh, default max_registration_partial: 63k triangles -> 253k -> 1.01M), each with the per-stage
-// times, CGAL's Tutte in the same run, and summary lines with the growth factor between the sizes.
+// times, CGAL's Tutte in the same run, and summary lines with the growth factor between the sizes. --rounds R
+// (default 1): CGAL once per size, then R rounds each running every row of both sizes once; the summary lines
+// give the median of the rounds (the growth: of the rounds' own ratios, and their range). On a shared VM a
+// spell of load lasts minutes and can make one size 40 % slower than usual; rows minutes apart then tell more
+// about the machine than about the growth (docs/architecture.md).
 //
 // Rows: every disk mesh of tests/data/meshes (DIR/meshes) with two generated targets
 // (tests/support/target_generators.h): a circle, and a self-overlapping boundary by construction (exp_strip,
@@ -360,21 +364,23 @@ struct MeshResult {
 
 static bool g_peer = true;  // false (--no-peer): CGAL's Tutte is not run
 
-MeshResult bench_mesh(const Mesh& m, int runs, double budget_s, bool stages) {
-  MeshResult out;
-  const std::string& name = m.name;
-  std::string cgal_error;
-  const std::string cgal_line = !g_peer ? std::string("cgal\t-1") : isolated([&] {
+// CGAL's Tutte map of m in a process of its own (median of `runs`): its time in ms, or -1 with *error set (empty
+// when the peer is not run).
+double peer_ms(const Mesh& m, int runs, std::string* error) {
+  if (!g_peer) return -1;
+  const std::string line = isolated([&] {
     std::string err;
     const double ms = cgal_tutte_ms(m, runs, &err);
     return err.empty() ? "cgal\t" + std::to_string(ms) : "error\t" + err;
   });
-  const std::vector<std::string> cf = split(cgal_line);
-  const double cgal_ms = cf.size() >= 2 && cf[0] == "cgal" ? std::atof(cf[1].c_str()) : -1;
-  out.cgal_ms = cgal_ms;
-  if (cf.empty() || cf[0] != "cgal") cgal_error = cf.size() >= 2 ? cf[1] : cgal_line;
+  const std::vector<std::string> f = split(line);
+  if (f.size() >= 2 && f[0] == "cgal") return std::atof(f[1].c_str());
+  *error = f.size() >= 2 ? f[1] : line;
+  return -1;
+}
 
-  // Targets: a circle and the first certified self-overlapping kind.
+// The rows' targets: a circle and the first certified self-overlapping kind.
+std::vector<lipmap::targetgen::Target> row_targets(const Mesh& m) {
   std::vector<lipmap::targetgen::Target> targets;
   std::string why;
   const lipmap::targetgen::DiskMeshRef ref{m.vertices, m.faces, m.loop};
@@ -384,35 +390,53 @@ MeshResult bench_mesh(const Mesh& m, int runs, double budget_s, bool stages) {
       targets.push_back(*t);
       break;
     }
-  for (const auto& t : targets) {
-    const Row r = decode(isolated([&] { return encode(run_row(m, t, runs, budget_s)); },
-                                  static_cast<unsigned>(budget_s) + 30));
-    out.rows.emplace_back(lipmap::targetgen::kind_name(t.kind), r);
-    if (!r.error.empty()) {
-      std::printf("%-26s %-11s error: %s\n", name.c_str(), lipmap::targetgen::kind_name(t.kind), r.error.c_str());
-      continue;
-    }
-    char ratio[32] = "-";
-    if (cgal_ms > 0 && r.total > 0) std::snprintf(ratio, sizeof ratio, "%.2f", r.total / cgal_ms);
-    std::printf("%-26s %-11s %-24s %7lld %7lld %6lld %5lld %9s %9s %9s %9s %9s %8s %8.1f %9s %7s\n", name.c_str(),
-                lipmap::targetgen::kind_name(t.kind), r.verdict.c_str(), r.vertices, r.triangles, r.boundary,
-                r.inserted, cell_ms(r.triangulation).c_str(), cell_ms(r.maps).c_str(),
-                cell_ms(r.compose_refine).c_str(), cell_ms(r.untangle_optimize).c_str(), cell_ms(r.total).c_str(),
-                cell_ms(r.other).c_str(),
-                r.rss_kb / 1024.0, cell_ms(cgal_ms).c_str(), ratio);
-    if (stages)
-      std::printf("  stages ms: validate %s, classify %s, target_mesh %s (%lld vertices), intermediate_maps %s "
-                  "(source %s, target %s), compose %s, refine %s, verify %s, quality %s, untangle %s, optimize %s; "
-                  "mean K %.4f, max K %.3f\n",
-                  cell_ms(r.stage[0]).c_str(), cell_ms(r.stage[1]).c_str(), cell_ms(r.stage[2]).c_str(),
-                  r.target_vertices, cell_ms(r.stage[3]).c_str(), r.source_solution.c_str(), r.target_solution.c_str(),
-                  cell_ms(r.stage[4]).c_str(),
-                  cell_ms(r.stage[5]).c_str(), cell_ms(r.stage[6]).c_str(), cell_ms(r.stage[7]).c_str(),
-                  cell_ms(r.stage[8]).c_str(), cell_ms(r.stage[9]).c_str(), r.mean_k, r.max_k);
-    std::fflush(stdout);
+  return targets;
+}
+
+// One row, run in a process of its own, and its table line (with stages, its stages line too).
+Row bench_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs, double budget_s, bool stages, double cgal_ms) {
+  const std::string& name = m.name;
+  const Row r = decode(isolated([&] { return encode(run_row(m, t, runs, budget_s)); },
+                                static_cast<unsigned>(budget_s) + 30));
+  if (!r.error.empty()) {
+    std::printf("%-26s %-11s error: %s\n", name.c_str(), lipmap::targetgen::kind_name(t.kind), r.error.c_str());
+    return r;
   }
-  if (!cgal_error.empty()) std::printf("%-26s CGAL Tutte failed: %s\n", name.c_str(), cgal_error.c_str());
+  char ratio[32] = "-";
+  if (cgal_ms > 0 && r.total > 0) std::snprintf(ratio, sizeof ratio, "%.2f", r.total / cgal_ms);
+  std::printf("%-26s %-11s %-24s %7lld %7lld %6lld %5lld %9s %9s %9s %9s %9s %8s %8.1f %9s %7s\n", name.c_str(),
+              lipmap::targetgen::kind_name(t.kind), r.verdict.c_str(), r.vertices, r.triangles, r.boundary,
+              r.inserted, cell_ms(r.triangulation).c_str(), cell_ms(r.maps).c_str(),
+              cell_ms(r.compose_refine).c_str(), cell_ms(r.untangle_optimize).c_str(), cell_ms(r.total).c_str(),
+              cell_ms(r.other).c_str(),
+              r.rss_kb / 1024.0, cell_ms(cgal_ms).c_str(), ratio);
+  if (stages)
+    std::printf("  stages ms: validate %s, classify %s, target_mesh %s (%lld vertices), intermediate_maps %s "
+                "(source %s, target %s), compose %s, refine %s, verify %s, quality %s, untangle %s, optimize %s; "
+                "mean K %.4f, max K %.3f\n",
+                cell_ms(r.stage[0]).c_str(), cell_ms(r.stage[1]).c_str(), cell_ms(r.stage[2]).c_str(),
+                r.target_vertices, cell_ms(r.stage[3]).c_str(), r.source_solution.c_str(), r.target_solution.c_str(),
+                cell_ms(r.stage[4]).c_str(),
+                cell_ms(r.stage[5]).c_str(), cell_ms(r.stage[6]).c_str(), cell_ms(r.stage[7]).c_str(),
+                cell_ms(r.stage[8]).c_str(), cell_ms(r.stage[9]).c_str(), r.mean_k, r.max_k);
+  std::fflush(stdout);
+  return r;
+}
+
+MeshResult bench_mesh(const Mesh& m, int runs, double budget_s, bool stages) {
+  MeshResult out;
+  std::string cgal_error;
+  out.cgal_ms = peer_ms(m, runs, &cgal_error);
+  for (const auto& t : row_targets(m))
+    out.rows.emplace_back(lipmap::targetgen::kind_name(t.kind), bench_row(m, t, runs, budget_s, stages, out.cgal_ms));
+  if (!cgal_error.empty()) std::printf("%-26s CGAL Tutte failed: %s\n", m.name.c_str(), cgal_error.c_str());
   return out;
+}
+
+double median_of(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const std::size_t n = v.size();
+  return n == 0 ? -1 : n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 int main(int argc, char** argv) {
@@ -420,6 +444,7 @@ int main(int argc, char** argv) {
   double budget_s = 300;
   std::vector<std::string> only;
   int large = 0;  // subdivision levels of the large rows; 0: the catalog
+  int rounds = 1;  // of the large rows
   bool stages = false;
   std::string large_mesh = "max_registration_partial";
   std::string data = default_data_dir();
@@ -433,13 +458,14 @@ int main(int argc, char** argv) {
     else if (!std::strcmp(argv[i], "--large")) large = 2;
     else if (!std::strncmp(argv[i], "--large=", 8)) large = std::clamp(std::atoi(argv[i] + 8), 1, 2);
     else if (!std::strcmp(argv[i], "--large-mesh") && i + 1 < argc) large_mesh = argv[++i];
+    else if (!std::strcmp(argv[i], "--rounds") && i + 1 < argc) rounds = std::max(1, std::atoi(argv[++i]));
     else if (!std::strcmp(argv[i], "--stages")) stages = true;
     else if (!std::strcmp(argv[i], "--no-peer")) g_peer = false;
     else if (!std::strcmp(argv[i], "--optimize") && i + 1 < argc &&
              lipmap::parse_optimize_energy(argv[i + 1], g_options.optimize)) ++i;
     else {
       std::printf("usage: %s [--quick] [--runs N] [--mesh NAME]... [--data DIR] [--budget-s S] [--stages] "
-                  "[--large[=1|2]] [--large-mesh NAME] [--no-peer] [--optimize none|mips|symmetric_dirichlet]\n", argv[0]);
+                  "[--large[=1|2]] [--large-mesh NAME] [--rounds R] [--no-peer] [--optimize none|mips|symmetric_dirichlet]\n", argv[0]);
       return 0;
     }
   }
@@ -476,31 +502,75 @@ int main(int argc, char** argv) {
       std::printf("no disk mesh named %s in the catalog\n", large_mesh.c_str());
       return 0;
     }
-    std::vector<MeshResult> results;
+    // CGAL once per size; then `rounds` rounds, each running every row of every size once (each row in its own
+    // process, `runs` runs): the rows of the two sizes are measured seconds apart rather than minutes (CGAL's 1M
+    // map takes half a minute), and the growth is the median of the rounds' own ratios, so that a spell of load
+    // on the machine (a shared VM's neighbours) falls on both sizes of a round alike.
+    std::vector<Mesh> meshes;
     std::vector<long long> sizes;
+    std::vector<double> cgal_ms;
+    std::vector<std::vector<lipmap::targetgen::Target>> targets;
     Mesh m = base;
     for (int level = 1; level <= large; ++level) {
       m = subdivide(m);
+      meshes.push_back(m);
       sizes.push_back(static_cast<long long>(m.faces.size()));
-      results.push_back(bench_mesh(m, runs, budget_s, true));
+      std::string error;
+      cgal_ms.push_back(peer_ms(m, runs, &error));
+      if (!error.empty()) std::printf("%-26s CGAL Tutte failed: %s\n", m.name.c_str(), error.c_str());
+      targets.push_back(row_targets(m));
     }
+    // rows[size][target][round]
+    std::vector<std::vector<std::vector<Row>>> rows(meshes.size());
+    for (std::size_t l = 0; l < meshes.size(); ++l) rows[l].resize(targets[l].size());
+    for (int round = 0; round < rounds; ++round) {
+      if (rounds > 1) std::printf("# round %d of %d\n", round + 1, rounds);
+      for (std::size_t l = 0; l < meshes.size(); ++l)
+        for (std::size_t t = 0; t < targets[l].size(); ++t)
+          rows[l][t].push_back(bench_row(meshes[l], targets[l][t], runs, budget_s, true, cgal_ms[l]));
+    }
+    auto ok = [](const std::vector<Row>& rs) {
+      return std::all_of(rs.begin(), rs.end(), [](const Row& r) { return r.error.empty(); });
+    };
+    auto median_field = [](const std::vector<Row>& rs, auto field) {
+      std::vector<double> v;
+      for (const Row& r : rs) v.push_back(field(r));
+      return median_of(v);
+    };
     std::printf("\n");
-    for (std::size_t l = 0; l < results.size(); ++l)
-      for (const auto& [kind, r] : results[l].rows) {
-        if (!r.error.empty()) continue;
-        std::printf("summary: %s %lldk triangles, %s: lipmap %.2f s, CGAL Tutte %.2f s, ratio %.2f, peak RSS %.0f MB, "
-                    "inserted %lld, target mesh %lld vertices\n", large_mesh.c_str(), sizes[l] / 1000, kind.c_str(),
-                    r.total / 1000, results[l].cgal_ms / 1000, results[l].cgal_ms > 0 ? r.total / results[l].cgal_ms : -1,
-                    r.rss_kb / 1024.0, r.inserted, r.target_vertices);
+    for (std::size_t l = 0; l < meshes.size(); ++l)
+      for (std::size_t t = 0; t < targets[l].size(); ++t) {
+        const std::vector<Row>& rs = rows[l][t];
+        if (!ok(rs)) continue;
+        const double total = median_field(rs, [](const Row& r) { return r.total; });
+        const double rss = median_field(rs, [](const Row& r) { return static_cast<double>(r.rss_kb); });
+        std::printf("summary: %s %lldk triangles, %s: lipmap %.2f s%s, CGAL Tutte %.2f s, ratio %.2f, peak RSS %.0f MB, "
+                    "inserted %lld, target mesh %lld vertices\n", large_mesh.c_str(), sizes[l] / 1000,
+                    lipmap::targetgen::kind_name(targets[l][t].kind), total / 1000,
+                    rounds > 1 ? " (median of the rounds)" : "", cgal_ms[l] / 1000,
+                    cgal_ms[l] > 0 ? total / cgal_ms[l] : -1, rss / 1024.0, rs[0].inserted, rs[0].target_vertices);
       }
-    if (results.size() == 2)
-      for (std::size_t t = 0; t < results[0].rows.size() && t < results[1].rows.size(); ++t) {
-        const Row &a = results[0].rows[t].second, &b = results[1].rows[t].second;
-        if (!a.error.empty() || !b.error.empty()) continue;
-        std::printf("summary: growth %lldk -> %lldk triangles (%.2fx), %s: lipmap total %.2fx, two maps %.2fx, "
+    if (meshes.size() == 2)
+      for (std::size_t t = 0; t < targets[0].size() && t < targets[1].size(); ++t) {
+        const std::vector<Row>&a = rows[0][t], &b = rows[1][t];
+        if (!ok(a) || !ok(b)) continue;
+        std::vector<double> total, maps, rss;
+        for (int r = 0; r < rounds; ++r) {
+          total.push_back(b[r].total / a[r].total);
+          maps.push_back(b[r].stage[3] / a[r].stage[3]);
+          rss.push_back(double(b[r].rss_kb) / double(a[r].rss_kb));
+        }
+        std::string spread;
+        if (rounds > 1) {
+          char buf[96];
+          std::snprintf(buf, sizeof buf, " (median of %d rounds' ratios; rounds %.2fx-%.2fx)", rounds,
+                        *std::min_element(total.begin(), total.end()), *std::max_element(total.begin(), total.end()));
+          spread = buf;
+        }
+        std::printf("summary: growth %lldk -> %lldk triangles (%.2fx), %s: lipmap total %.2fx%s, two maps %.2fx, "
                     "CGAL Tutte %.2fx, peak RSS %.2fx\n", sizes[0] / 1000, sizes[1] / 1000,
-                    double(sizes[1]) / double(sizes[0]), results[0].rows[t].first.c_str(), b.total / a.total,
-                    b.stage[3] / a.stage[3], results[1].cgal_ms / results[0].cgal_ms, double(b.rss_kb) / double(a.rss_kb));
+                    double(sizes[1]) / double(sizes[0]), lipmap::targetgen::kind_name(targets[0][t].kind),
+                    median_of(total), spread.c_str(), median_of(maps), cgal_ms[1] / cgal_ms[0], median_of(rss));
       }
   } else {
     // Every disk mesh of the tests' catalog (tests/support/test_meshes.h), with $LIPMAP_EXTRA_MESHES.
