@@ -47,6 +47,8 @@
 #include <cstring>
 #include <fstream>
 #include <map>
+#include <memory>
+#include <stdexcept>
 #include <optional>
 #include <string>
 #include <thread>
@@ -393,19 +395,21 @@ std::vector<lipmap::targetgen::Target> row_targets(const Mesh& m) {
   return targets;
 }
 
-// One row, run in a process of its own, and its table line (with stages, its stages line too).
-Row bench_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs, double budget_s, bool stages, double cgal_ms) {
-  const std::string& name = m.name;
-  const Row r = decode(isolated([&] { return encode(run_row(m, t, runs, budget_s)); },
-                                static_cast<unsigned>(budget_s) + 30));
+// One row, run in a process of its own.
+Row measure_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs, double budget_s) {
+  return decode(isolated([&] { return encode(run_row(m, t, runs, budget_s)); }, static_cast<unsigned>(budget_s) + 30));
+}
+
+// A row's table line (with stages, its stages line too).
+void print_row(const std::string& name, const char* kind, const Row& r, bool stages, double cgal_ms) {
   if (!r.error.empty()) {
-    std::printf("%-26s %-11s error: %s\n", name.c_str(), lipmap::targetgen::kind_name(t.kind), r.error.c_str());
-    return r;
+    std::printf("%-26s %-11s error: %s\n", name.c_str(), kind, r.error.c_str());
+    return;
   }
   char ratio[32] = "-";
   if (cgal_ms > 0 && r.total > 0) std::snprintf(ratio, sizeof ratio, "%.2f", r.total / cgal_ms);
   std::printf("%-26s %-11s %-24s %7lld %7lld %6lld %5lld %9s %9s %9s %9s %9s %8s %8.1f %9s %7s\n", name.c_str(),
-              lipmap::targetgen::kind_name(t.kind), r.verdict.c_str(), r.vertices, r.triangles, r.boundary,
+              kind, r.verdict.c_str(), r.vertices, r.triangles, r.boundary,
               r.inserted, cell_ms(r.triangulation).c_str(), cell_ms(r.maps).c_str(),
               cell_ms(r.compose_refine).c_str(), cell_ms(r.untangle_optimize).c_str(), cell_ms(r.total).c_str(),
               cell_ms(r.other).c_str(),
@@ -420,15 +424,111 @@ Row bench_row(const Mesh& m, const lipmap::targetgen::Target& t, int runs, doubl
                 cell_ms(r.stage[5]).c_str(), cell_ms(r.stage[6]).c_str(), cell_ms(r.stage[7]).c_str(),
                 cell_ms(r.stage[8]).c_str(), cell_ms(r.stage[9]).c_str(), r.mean_k, r.max_k);
   std::fflush(stdout);
-  return r;
 }
+
+// The large rows of one size, for rounds that alternate between sizes: a process that makes the mesh (the base
+// subdivided `level` times) and its targets, measures CGAL's Tutte once, then runs the rows it is asked for,
+// each in a child of its own. A row's peak resident set then holds its own size's mesh, as it does when the
+// sizes are run one after the other; with every size's mesh in one parent, each row's process (a fork of it)
+// would count the other sizes' too (about 50 MB at 253k).
+class SizeHost {
+ public:
+  SizeHost(const Mesh& base, int level, int runs, double budget_s) {
+    int down[2], up[2];
+    if (pipe(down) != 0 || pipe(up) != 0) throw std::runtime_error("pipe failed");
+    std::fflush(stdout);
+    pid_ = fork();
+    if (pid_ < 0) throw std::runtime_error("fork failed");
+    if (pid_ == 0) {
+      // Only its own pipe ends stay open: a host that kept an earlier host's would keep that one from ever
+      // reading the end of its input.
+      const unsigned lo = static_cast<unsigned>(std::min(down[0], up[1])), hi = static_cast<unsigned>(std::max(down[0], up[1]));
+      close_range(3, lo - 1, 0);
+      close_range(lo + 1, hi - 1, 0);
+      close_range(hi + 1, ~0U, 0);
+      FILE* in = fdopen(down[0], "r");
+      FILE* out = fdopen(up[1], "w");
+      Mesh m = base;
+      for (int l = 0; l < level; ++l) m = subdivide(m);
+      std::string error;
+      const double cgal = peer_ms(m, runs, &error);
+      for (char& c : error)
+        if (c == '\t' || c == '\n') c = ' ';
+      const std::vector<lipmap::targetgen::Target> targets = row_targets(m);
+      std::fprintf(out, "%s\t%zu\t%.6f\t%s", m.name.c_str(), m.faces.size(), cgal, error.c_str());
+      for (const auto& t : targets) std::fprintf(out, "\t%s", lipmap::targetgen::kind_name(t.kind));
+      std::fprintf(out, "\n");
+      std::fflush(out);
+      char line[64];
+      while (std::fgets(line, sizeof line, in)) {
+        const std::size_t t = static_cast<std::size_t>(std::atoi(line));
+        Row r;
+        if (t < targets.size()) r = measure_row(m, targets[t], runs, budget_s);
+        else r.error = "no target " + std::to_string(t);
+        std::fprintf(out, "%s\n", encode(r).c_str());
+        std::fflush(out);
+      }
+      _exit(0);
+    }
+    close(down[0]);
+    close(up[1]);
+    to_ = fdopen(down[1], "w");
+    from_ = fdopen(up[0], "r");
+    const std::vector<std::string> f = split(read_line());
+    if (f.size() < 4) throw std::runtime_error("the size host died");
+    name = f[0];
+    triangles = std::atoll(f[1].c_str());
+    cgal_ms = std::atof(f[2].c_str());
+    cgal_error = f[3];
+    kinds.assign(f.begin() + 4, f.end());
+  }
+  ~SizeHost() {
+    std::fclose(to_);  // the host's loop ends at end of input
+    std::fclose(from_);
+    waitpid(pid_, nullptr, 0);
+  }
+  SizeHost(const SizeHost&) = delete;
+  SizeHost& operator=(const SizeHost&) = delete;
+
+  Row row(std::size_t t) {
+    std::fprintf(to_, "%zu\n", t);
+    std::fflush(to_);
+    const std::string line = read_line();
+    return line.empty() ? decode("error\tthe size host died") : decode(line);
+  }
+
+  std::string name, cgal_error;
+  long long triangles = 0;
+  double cgal_ms = -1;
+  std::vector<std::string> kinds;
+
+ private:
+  std::string read_line() {
+    std::string line;
+    char buf[4096];
+    while (std::fgets(buf, sizeof buf, from_)) {
+      line += buf;
+      if (!line.empty() && line.back() == '\n') {
+        line.pop_back();
+        break;
+      }
+    }
+    return line;
+  }
+  pid_t pid_ = -1;
+  FILE* to_ = nullptr;
+  FILE* from_ = nullptr;
+};
 
 MeshResult bench_mesh(const Mesh& m, int runs, double budget_s, bool stages) {
   MeshResult out;
   std::string cgal_error;
   out.cgal_ms = peer_ms(m, runs, &cgal_error);
-  for (const auto& t : row_targets(m))
-    out.rows.emplace_back(lipmap::targetgen::kind_name(t.kind), bench_row(m, t, runs, budget_s, stages, out.cgal_ms));
+  for (const auto& t : row_targets(m)) {
+    const char* kind = lipmap::targetgen::kind_name(t.kind);
+    out.rows.emplace_back(kind, measure_row(m, t, runs, budget_s));
+    print_row(m.name, kind, out.rows.back().second, stages, out.cgal_ms);
+  }
   if (!cgal_error.empty()) std::printf("%-26s CGAL Tutte failed: %s\n", m.name.c_str(), cgal_error.c_str());
   return out;
 }
@@ -506,71 +606,74 @@ int main(int argc, char** argv) {
     // process, `runs` runs): the rows of the two sizes are measured seconds apart rather than minutes (CGAL's 1M
     // map takes half a minute), and the growth is the median of the rounds' own ratios, so that a spell of load
     // on the machine (a shared VM's neighbours) falls on both sizes of a round alike.
-    std::vector<Mesh> meshes;
-    std::vector<long long> sizes;
-    std::vector<double> cgal_ms;
-    std::vector<std::vector<lipmap::targetgen::Target>> targets;
-    Mesh m = base;
+    std::vector<std::unique_ptr<SizeHost>> hosts;
     for (int level = 1; level <= large; ++level) {
-      m = subdivide(m);
-      meshes.push_back(m);
-      sizes.push_back(static_cast<long long>(m.faces.size()));
-      std::string error;
-      cgal_ms.push_back(peer_ms(m, runs, &error));
-      if (!error.empty()) std::printf("%-26s CGAL Tutte failed: %s\n", m.name.c_str(), error.c_str());
-      targets.push_back(row_targets(m));
+      hosts.push_back(std::make_unique<SizeHost>(base, level, runs, budget_s));
+      if (!hosts.back()->cgal_error.empty())
+        std::printf("%-26s CGAL Tutte failed: %s\n", hosts.back()->name.c_str(), hosts.back()->cgal_error.c_str());
     }
     // rows[size][target][round]
-    std::vector<std::vector<std::vector<Row>>> rows(meshes.size());
-    for (std::size_t l = 0; l < meshes.size(); ++l) rows[l].resize(targets[l].size());
+    std::vector<std::vector<std::vector<Row>>> rows(hosts.size());
+    for (std::size_t l = 0; l < hosts.size(); ++l) rows[l].resize(hosts[l]->kinds.size());
     for (int round = 0; round < rounds; ++round) {
       if (rounds > 1) std::printf("# round %d of %d\n", round + 1, rounds);
-      for (std::size_t l = 0; l < meshes.size(); ++l)
-        for (std::size_t t = 0; t < targets[l].size(); ++t)
-          rows[l][t].push_back(bench_row(meshes[l], targets[l][t], runs, budget_s, true, cgal_ms[l]));
+      for (std::size_t l = 0; l < hosts.size(); ++l)
+        for (std::size_t t = 0; t < hosts[l]->kinds.size(); ++t) {
+          rows[l][t].push_back(hosts[l]->row(t));
+          print_row(hosts[l]->name, hosts[l]->kinds[t].c_str(), rows[l][t].back(), true, hosts[l]->cgal_ms);
+        }
     }
-    auto ok = [](const std::vector<Row>& rs) {
-      return std::all_of(rs.begin(), rs.end(), [](const Row& r) { return r.error.empty(); });
-    };
     auto median_field = [](const std::vector<Row>& rs, auto field) {
       std::vector<double> v;
-      for (const Row& r : rs) v.push_back(field(r));
+      for (const Row& r : rs)
+        if (r.error.empty()) v.push_back(field(r));
       return median_of(v);
     };
     std::printf("\n");
-    for (std::size_t l = 0; l < meshes.size(); ++l)
-      for (std::size_t t = 0; t < targets[l].size(); ++t) {
+    for (std::size_t l = 0; l < hosts.size(); ++l)
+      for (std::size_t t = 0; t < hosts[l]->kinds.size(); ++t) {
         const std::vector<Row>& rs = rows[l][t];
-        if (!ok(rs)) continue;
+        const auto good = std::find_if(rs.begin(), rs.end(), [](const Row& r) { return r.error.empty(); });
+        if (good == rs.end()) continue;
+        const long ok = std::count_if(rs.begin(), rs.end(), [](const Row& r) { return r.error.empty(); });
         const double total = median_field(rs, [](const Row& r) { return r.total; });
         const double rss = median_field(rs, [](const Row& r) { return static_cast<double>(r.rss_kb); });
+        const double cgal = hosts[l]->cgal_ms;
+        char of[64] = "";
+        if (rounds > 1) std::snprintf(of, sizeof of, " (median of %ld rounds)", ok);
         std::printf("summary: %s %lldk triangles, %s: lipmap %.2f s%s, CGAL Tutte %.2f s, ratio %.2f, peak RSS %.0f MB, "
-                    "inserted %lld, target mesh %lld vertices\n", large_mesh.c_str(), sizes[l] / 1000,
-                    lipmap::targetgen::kind_name(targets[l][t].kind), total / 1000,
-                    rounds > 1 ? " (median of the rounds)" : "", cgal_ms[l] / 1000,
-                    cgal_ms[l] > 0 ? total / cgal_ms[l] : -1, rss / 1024.0, rs[0].inserted, rs[0].target_vertices);
+                    "inserted %lld, target mesh %lld vertices\n", large_mesh.c_str(), hosts[l]->triangles / 1000,
+                    hosts[l]->kinds[t].c_str(), total / 1000, of, cgal / 1000, cgal > 0 ? total / cgal : -1,
+                    rss / 1024.0, good->inserted, good->target_vertices);
       }
-    if (meshes.size() == 2)
-      for (std::size_t t = 0; t < targets[0].size() && t < targets[1].size(); ++t) {
-        const std::vector<Row>&a = rows[0][t], &b = rows[1][t];
-        if (!ok(a) || !ok(b)) continue;
-        std::vector<double> total, maps, rss;
+    if (hosts.size() == 2)
+      for (std::size_t t = 0; t < hosts[0]->kinds.size(); ++t) {
+        // The same target kind at both sizes (the self-overlapping kind is the first each size certifies).
+        const auto u = std::find(hosts[1]->kinds.begin(), hosts[1]->kinds.end(), hosts[0]->kinds[t]);
+        if (u == hosts[1]->kinds.end()) continue;
+        const std::vector<Row>&a = rows[0][t], &b = rows[1][static_cast<std::size_t>(u - hosts[1]->kinds.begin())];
+        std::vector<double> total, maps, rss;  // over the rounds where both sizes' rows ran
         for (int r = 0; r < rounds; ++r) {
+          if (!a[r].error.empty() || !b[r].error.empty()) continue;
           total.push_back(b[r].total / a[r].total);
           maps.push_back(b[r].stage[3] / a[r].stage[3]);
           rss.push_back(double(b[r].rss_kb) / double(a[r].rss_kb));
         }
+        if (total.empty()) continue;
         std::string spread;
         if (rounds > 1) {
           char buf[96];
-          std::snprintf(buf, sizeof buf, " (median of %d rounds' ratios; rounds %.2fx-%.2fx)", rounds,
+          std::snprintf(buf, sizeof buf, " (median of %zu rounds' ratios; rounds %.2fx-%.2fx)", total.size(),
                         *std::min_element(total.begin(), total.end()), *std::max_element(total.begin(), total.end()));
           spread = buf;
         }
+        char cgal[32] = "-";
+        if (hosts[0]->cgal_ms > 0 && hosts[1]->cgal_ms > 0)
+          std::snprintf(cgal, sizeof cgal, "%.2fx", hosts[1]->cgal_ms / hosts[0]->cgal_ms);
         std::printf("summary: growth %lldk -> %lldk triangles (%.2fx), %s: lipmap total %.2fx%s, two maps %.2fx, "
-                    "CGAL Tutte %.2fx, peak RSS %.2fx\n", sizes[0] / 1000, sizes[1] / 1000,
-                    double(sizes[1]) / double(sizes[0]), lipmap::targetgen::kind_name(targets[0][t].kind),
-                    median_of(total), spread.c_str(), median_of(maps), cgal_ms[1] / cgal_ms[0], median_of(rss));
+                    "CGAL Tutte %s, peak RSS %.2fx\n", hosts[0]->triangles / 1000, hosts[1]->triangles / 1000,
+                    double(hosts[1]->triangles) / double(hosts[0]->triangles), hosts[0]->kinds[t].c_str(),
+                    median_of(total), spread.c_str(), median_of(maps), cgal, median_of(rss));
       }
   } else {
     // Every disk mesh of the tests' catalog (tests/support/test_meshes.h), with $LIPMAP_EXTRA_MESHES.

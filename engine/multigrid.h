@@ -16,7 +16,8 @@
 // Preconditions (documented, not all checked): A is square, symmetric with its full pattern stored (both
 // triangles), with a positive diagonal and positive definite; its near null space is the constant vector (a
 // Laplacian's interior block with Dirichlet rows eliminated). compute() returns false when A is not usable
-// (non-positive or non-finite diagonal, or a coarse factorization that fails); solve() then must not be called.
+// (non-positive or non-finite diagonal, a pattern that is not symmetric, or a coarse factorization that fails);
+// solve() then must not be called.
 // One object solves on one thread at a time (its cycles reuse scratch vectors).
 // The answer is an iterate, not an exact solve: each column's residual is driven below tolerance x |b|
 // (stats() says how far it got); a right-hand side that is not finite gives an answer that is not either.
