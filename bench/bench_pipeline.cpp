@@ -356,14 +356,6 @@ std::string cpu_model() {
 
 }  // namespace
 
-// One mesh's rows: CGAL's Tutte once, then lipmap on a circle and on the first certified self-overlapping
-// target. Prints the table lines (and, with stages, one line per row: the per-stage times and the answer's mean
-// and max conformal distortion K); returns the rows.
-struct MeshResult {
-  double cgal_ms = -1;
-  std::vector<std::pair<std::string, Row>> rows;  // (target kind, row)
-};
-
 static bool g_peer = true;  // false (--no-peer): CGAL's Tutte is not run
 
 // CGAL's Tutte map of m in a process of its own (median of `runs`): its time in ms, or -1 with *error set (empty
@@ -520,23 +512,15 @@ class SizeHost {
   FILE* from_ = nullptr;
 };
 
-MeshResult bench_mesh(const Mesh& m, int runs, double budget_s, bool stages) {
-  MeshResult out;
+// One catalog mesh's rows: CGAL's Tutte once, then lipmap on a circle and on the first certified
+// self-overlapping target. Prints the table lines (and, with stages, one line per row: the per-stage times and
+// the answer's mean and max conformal distortion K).
+void bench_mesh(const Mesh& m, int runs, double budget_s, bool stages) {
   std::string cgal_error;
-  out.cgal_ms = peer_ms(m, runs, &cgal_error);
-  for (const auto& t : row_targets(m)) {
-    const char* kind = lipmap::targetgen::kind_name(t.kind);
-    out.rows.emplace_back(kind, measure_row(m, t, runs, budget_s));
-    print_row(m.name, kind, out.rows.back().second, stages, out.cgal_ms);
-  }
+  const double cgal_ms = peer_ms(m, runs, &cgal_error);
+  for (const auto& t : row_targets(m))
+    print_row(m.name, lipmap::targetgen::kind_name(t.kind), measure_row(m, t, runs, budget_s), stages, cgal_ms);
   if (!cgal_error.empty()) std::printf("%-26s CGAL Tutte failed: %s\n", m.name.c_str(), cgal_error.c_str());
-  return out;
-}
-
-double median_of(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const std::size_t n = v.size();
-  return n == 0 ? -1 : n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
 int main(int argc, char** argv) {
@@ -627,7 +611,7 @@ int main(int argc, char** argv) {
       std::vector<double> v;
       for (const Row& r : rs)
         if (r.error.empty()) v.push_back(field(r));
-      return median_of(v);
+      return median(v);
     };
     std::printf("\n");
     for (std::size_t l = 0; l < hosts.size(); ++l)
@@ -673,7 +657,7 @@ int main(int argc, char** argv) {
         std::printf("summary: growth %lldk -> %lldk triangles (%.2fx), %s: lipmap total %.2fx%s, two maps %.2fx, "
                     "CGAL Tutte %s, peak RSS %.2fx\n", hosts[0]->triangles / 1000, hosts[1]->triangles / 1000,
                     double(hosts[1]->triangles) / double(hosts[0]->triangles), hosts[0]->kinds[t].c_str(),
-                    median_of(total), spread.c_str(), median_of(maps), cgal, median_of(rss));
+                    median(total), spread.c_str(), median(maps), cgal, median(rss));
       }
   } else {
     // Every disk mesh of the tests' catalog (tests/support/test_meshes.h), with $LIPMAP_EXTRA_MESHES.

@@ -319,7 +319,7 @@ Matrix galerkin_product(const Matrix& A, const Compact<double>& P, const Compact
 // symmetric. False when an entry has no mirror (P^T A P of a symmetric A always has one: compute() then
 // refuses the matrix rather than go on with a broken operator).
 bool symmetrize(Matrix& C) {
-  int* outer = C.outerIndexPtr();
+  const int* outer = C.outerIndexPtr();
   const int* inner = C.innerIndexPtr();
   double* value = C.valuePtr();
   for (int c = 0; c < C.outerSize(); ++c)
