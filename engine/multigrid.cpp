@@ -348,93 +348,158 @@ std::vector<int> diagonal_positions(const Compact<Value>& A) {
   return out;
 }
 
+// The right-hand side of a level's sweeps: the level's own vector, or at the finest level S r scaled as it is
+// read (the cycle works on S A S; a separate scaled copy of r would be one more pass over two vectors a cycle).
+struct RightHandSide {
+  const double* b;
+  const double* scale = nullptr;  // when set, entry (i, c) is scale[i] b[2i + c]
+  double at(int i, int c) const {
+    const double v = b[2 * static_cast<std::size_t>(i) + static_cast<std::size_t>(c)];
+    return scale ? scale[i] * v : v;
+  }
+};
+
 struct AggregationMultigrid::Hierarchy {
   struct Level {
     Compact<float> A;           // this level's operator (full symmetric pattern: column i is row i)
     std::vector<int> diagonal;  // where each column's diagonal entry is (its rows are sorted)
     std::vector<double> inv_diag;
-    Compact<double> P;          // prolongation to this level from the next, by columns (gathers the restriction)
-    Compact<double> R;          // its transpose by columns, i.e. P by rows (gathers the prolongation)
-    mutable Pairs x, r, b;      // scratch of one V-cycle (b, x: the coarse level's right-hand side and answer)
+    Compact<double> R;          // P^T by columns, i.e. the prolongation P (to this level from the next) by rows
+    mutable Pairs x, b;         // scratch of one V-cycle: the next level's right-hand side and answer
     int size() const { return A.columns(); }
   };
   std::vector<int> order;       // unknown k of the levels is unknown order[k] of the system
   Eigen::VectorXd scale;        // S: the levels are built for S A S (in the levels' order)
-  mutable Pairs scaled;         // S r, the cycle's right-hand side
   Compact<double> finest;       // the system itself (reordered), in double, for the conjugate gradients
   std::vector<Level> levels;    // levels.back() is factored
   Eigen::CholmodSupernodalLLT<Matrix, Eigen::Lower> coarse;
 
-  // One forward (or backward) Gauss-Seidel sweep on A x = b, in place: x_i += (b_i - (A x)_i) / a_ii, using
-  // the columns of the symmetric A as its rows. From x = 0 a forward sweep needs only the entries above
-  // the diagonal of each column (j < i; the rest multiply zeros): half the traffic.
-  static void sweep(const Level& l, const Pairs& b, Pairs& x, bool forward, bool from_zero) {
-    const int n = l.size();
-    const int* outer = l.A.outer.data();
+  // x_i += (b_i - (A x)_i) / a_ii for row i, using the columns of the symmetric A as its rows.
+  static void relax_row(const Level& l, const RightHandSide& b, double* xv, int i) {
     const int* inner = l.A.inner.data();
     const float* value = l.A.value.data();
+    double r0 = b.at(i, 0), r1 = b.at(i, 1);
+    for (int k = l.A.outer[static_cast<std::size_t>(i)]; k < l.A.outer[static_cast<std::size_t>(i) + 1]; ++k) {
+      r0 -= value[k] * xv[2 * inner[k]];
+      r1 -= value[k] * xv[2 * inner[k] + 1];
+    }
+    xv[2 * i] += r0 * l.inv_diag[static_cast<std::size_t>(i)];
+    xv[2 * i + 1] += r1 * l.inv_diag[static_cast<std::size_t>(i)];
+  }
+
+  // One forward Gauss-Seidel sweep on A x = b, in place. From x = 0 it needs only the entries above the
+  // diagonal of each column (j < i; the rest multiply zeros): half the traffic.
+  static void forward_sweep(const Level& l, const RightHandSide& b, Pairs& x, bool from_zero) {
+    const int n = l.size();
     double* xv = x.data();
-    const double* bv = b.data();
-    for (int s = 0; s < n; ++s) {
-      const int i = forward ? s : n - 1 - s;
-      double r0 = bv[2 * i], r1 = bv[2 * i + 1];
-      if (from_zero) {
-        for (int k = outer[i]; k < l.diagonal[static_cast<std::size_t>(i)]; ++k) {
-          r0 -= value[k] * xv[2 * inner[k]];
-          r1 -= value[k] * xv[2 * inner[k] + 1];
-        }
-        xv[2 * i] = r0 * l.inv_diag[static_cast<std::size_t>(i)];
-        xv[2 * i + 1] = r1 * l.inv_diag[static_cast<std::size_t>(i)];
-        continue;
-      }
-      for (int k = outer[i]; k < outer[i + 1]; ++k) {
+    if (!from_zero) {
+      for (int i = 0; i < n; ++i) relax_row(l, b, xv, i);
+      return;
+    }
+    const int* inner = l.A.inner.data();
+    const float* value = l.A.value.data();
+    for (int i = 0; i < n; ++i) {
+      double r0 = b.at(i, 0), r1 = b.at(i, 1);
+      for (int k = l.A.outer[static_cast<std::size_t>(i)]; k < l.diagonal[static_cast<std::size_t>(i)]; ++k) {
         r0 -= value[k] * xv[2 * inner[k]];
         r1 -= value[k] * xv[2 * inner[k] + 1];
       }
-      xv[2 * i] += r0 * l.inv_diag[static_cast<std::size_t>(i)];
-      xv[2 * i + 1] += r1 * l.inv_diag[static_cast<std::size_t>(i)];
+      xv[2 * i] = r0 * l.inv_diag[static_cast<std::size_t>(i)];
+      xv[2 * i + 1] = r1 * l.inv_diag[static_cast<std::size_t>(i)];
+    }
+  }
+
+  // One backward Gauss-Seidel sweep, in place. With `coarse`, the coarse correction P x_c is added to each row
+  // of x first, just before the sweep reads that row (row i reads rows from its first column on): the two go
+  // down together and the rows prolonged are still in cache when the sweep reads them, where a separate pass
+  // would read and write x once more. With `dot` (the finest level, b read scaled), dot[c] += sum_i
+  // b_ic (S x)_ic, the conjugate gradients' r.z, taken as each row is final.
+  static void backward_sweep(const Level& l, const RightHandSide& b, Pairs& x, const double* coarse, double* dot) {
+    const int n = l.size();
+    const int* outer = l.A.outer.data();
+    const int* inner = l.A.inner.data();
+    double* xv = x.data();
+    int prolonged = n;  // rows >= prolonged have had P x_c added
+    for (int i = n - 1; i >= 0; --i) {
+      if (coarse) {
+        const int first = outer[i] < outer[i + 1] ? std::min(i, inner[outer[i]]) : i;
+        while (prolonged > first) {
+          --prolonged;
+          double s0 = 0, s1 = 0;
+          for (int k = l.R.outer[static_cast<std::size_t>(prolonged)];
+               k < l.R.outer[static_cast<std::size_t>(prolonged) + 1]; ++k) {
+            const double a = l.R.value[static_cast<std::size_t>(k)];
+            const std::size_t c = 2 * static_cast<std::size_t>(l.R.inner[static_cast<std::size_t>(k)]);
+            s0 += a * coarse[c];
+            s1 += a * coarse[c + 1];
+          }
+          xv[2 * prolonged] += s0;
+          xv[2 * prolonged + 1] += s1;
+        }
+      }
+      relax_row(l, b, xv, i);
+      if (dot) {
+        dot[0] += b.b[2 * i] * (b.scale[i] * xv[2 * i]);
+        dot[1] += b.b[2 * i + 1] * (b.scale[i] * xv[2 * i + 1]);
+      }
     }
   }
 
   // z = V-cycle(b) on level k, from z = 0. Symmetric (forward sweeps before, backward after), so it is a
-  // valid preconditioner for conjugate gradients.
-  void cycle(std::size_t k, const Pairs& b, Pairs& z, int sweeps) const {
+  // valid preconditioner for conjugate gradients. `dot` as in backward_sweep (level 0 of a hierarchy with more
+  // than one level, b read scaled).
+  void cycle(std::size_t k, const RightHandSide& b, Pairs& z, int sweeps, double* dot = nullptr) const {
+    const Level& l = levels[k];
+    const int n = l.size();
     if (k + 1 == levels.size()) {
-      z = coarse.solve(b);
+      if (b.scale) {  // a one-level hierarchy: its factor solves S A S
+        Pairs scaled(n, 2);
+        for (int i = 0; i < n; ++i) scaled.row(i) << b.at(i, 0), b.at(i, 1);
+        z = coarse.solve(scaled);
+      } else {
+        z = coarse.solve(Eigen::Map<const Pairs>(b.b, n, 2));
+      }
       return;
     }
-    const Level& l = levels[k];
     const Level& next = levels[k + 1];
-    const int n = l.size();
     z.resize(n, 2);
-    for (int s = 0; s < sweeps; ++s) sweep(l, b, z, true, s == 0);
-    l.r.resize(n, 2);
-    if (sweeps == 1) {
-      // After one forward sweep from zero, b_i - sum_{j <= i} a_ij z_j = 0 for every i: the residual is
-      // -sum_{j > i} a_ij z_j, half a pass over A instead of a whole one.
-      const int* inner = l.A.inner.data();
-      const float* value = l.A.value.data();
-      const double* zv = z.data();
-      double* rv = l.r.data();
-      const int* outer = l.A.outer.data();
-      for (int i = 0; i < n; ++i) {
-        double r0 = 0, r1 = 0;
-        for (int k = l.diagonal[static_cast<std::size_t>(i)] + 1; k < outer[i + 1]; ++k) {
-          r0 -= value[k] * zv[2 * inner[k]];
-          r1 -= value[k] * zv[2 * inner[k] + 1];
+    for (int s = 0; s < sweeps; ++s) forward_sweep(l, b, z, s == 0);
+    // The residual, restricted as each row of it is formed (next.b = P^T r, scattered through P's rows: the
+    // coarse vector is small enough to stay in cache, and r itself is never stored).
+    next.b.setZero(next.size(), 2);
+    double* nb = next.b.data();
+    const int* outer = l.A.outer.data();
+    const int* inner = l.A.inner.data();
+    const float* value = l.A.value.data();
+    const double* zv = z.data();
+    for (int i = 0; i < n; ++i) {
+      double r0 = 0, r1 = 0;
+      if (sweeps == 1) {
+        // After one forward sweep from zero, b_i - sum_{j <= i} a_ij z_j = 0 for every i: the residual is
+        // -sum_{j > i} a_ij z_j, half a pass over A instead of a whole one.
+        for (int q = l.diagonal[static_cast<std::size_t>(i)] + 1; q < outer[i + 1]; ++q) {
+          r0 -= value[q] * zv[2 * inner[q]];
+          r1 -= value[q] * zv[2 * inner[q] + 1];
         }
-        rv[2 * i] = r0;
-        rv[2 * i + 1] = r1;
+      } else {
+        double s0 = 0, s1 = 0;
+        for (int q = outer[i]; q < outer[i + 1]; ++q) {
+          s0 += value[q] * zv[2 * inner[q]];
+          s1 += value[q] * zv[2 * inner[q] + 1];
+        }
+        r0 = b.at(i, 0) - s0;
+        r1 = b.at(i, 1) - s1;
       }
-    } else {
-      l.A.gather(z.data(), l.r.data(), false);  // A z (A symmetric)
-      l.r = b - l.r;
+      for (int q = l.R.outer[static_cast<std::size_t>(i)]; q < l.R.outer[static_cast<std::size_t>(i) + 1]; ++q) {
+        const double a = l.R.value[static_cast<std::size_t>(q)];
+        const std::size_t c = 2 * static_cast<std::size_t>(l.R.inner[static_cast<std::size_t>(q)]);
+        nb[c] += a * r0;
+        nb[c + 1] += a * r1;
+      }
     }
-    next.b.resize(next.size(), 2);
-    l.P.gather(l.r.data(), next.b.data(), false);  // P^T r
-    cycle(k + 1, next.b, next.x, sweeps);
-    l.R.gather(next.x.data(), z.data(), true);  // z += P x_c
-    for (int s = 0; s < sweeps; ++s) sweep(l, b, z, false, false);
+    cycle(k + 1, RightHandSide{next.b.data()}, next.x, sweeps);
+    for (int s = 0; s < sweeps; ++s)
+      backward_sweep(l, b, z, s == 0 ? next.x.data() : nullptr, s + 1 == sweeps ? dot : nullptr);
   }
 
   // A block of the system's unknowns in the levels' order, and back.
@@ -451,11 +516,8 @@ struct AggregationMultigrid::Hierarchy {
 
   // z = S V(S r): the V-cycle of S A S, an approximation of A^-1 (exact with one level: the factor's solve).
   void precondition(const Pairs& r, Pairs& z, int sweeps) const {
-    const Eigen::Index n = r.rows();
-    scaled.resize(n, 2);
-    for (Eigen::Index i = 0; i < n; ++i) scaled.row(i) = r.row(i) * scale[i];
-    cycle(0, scaled, z, sweeps);
-    for (Eigen::Index i = 0; i < n; ++i) z.row(i) *= scale[i];
+    cycle(0, RightHandSide{r.data(), scale.data()}, z, sweeps);
+    for (Eigen::Index i = 0; i < z.rows(); ++i) z.row(i) *= scale[i];
   }
 };
 
@@ -510,21 +572,16 @@ bool AggregationMultigrid::compute(const Matrix& A) {
     Eigen::VectorXd tentative(n);
     for (int i = 0; i < n; ++i) tentative[i] = near_null[i] / norm[agg[static_cast<std::size_t>(i)]];
     Compact<double> R = smoothed_restriction(current, m_diag, agg, tentative, 4.0 / (3.0 * rho));
-    Compact<double> P = transposed(R, count);
-    Matrix coarse = galerkin_product(current, P, R);
+    Matrix coarse = galerkin_product(current, transposed(R, count), R);  // P itself is not kept
     if (!symmetrize(coarse)) return false;
     // Scaled to a unit diagonal as the finest level is (S_c P^T A P S_c with P's columns scaled by S_c): an
     // aggregate joined to the rest by tiny weights only has a tiny diagonal entry, which float would lose.
     Eigen::VectorXd coarse_scale;
     if (!scale_to_unit_diagonal(coarse, coarse_scale)) return false;
     for (std::size_t k = 0; k < R.inner.size(); ++k) R.value[k] *= coarse_scale[R.inner[k]];
-    for (int j = 0; j < count; ++j)
-      for (int k = P.outer[static_cast<std::size_t>(j)]; k < P.outer[static_cast<std::size_t>(j) + 1]; ++k)
-        P.value[static_cast<std::size_t>(k)] *= coarse_scale[j];
     near_null = norm.cwiseQuotient(coarse_scale);  // in the coarse level's scaled unknowns
     l.A = Compact<float>(current);
     l.diagonal = diagonal_positions(l.A);
-    l.P = std::move(P);
     l.R = std::move(R);
     current = std::move(coarse);
   }
@@ -557,9 +614,13 @@ AggregationMultigrid::Block AggregationMultigrid::solve(const Block& b_in, const
   Pairs x = Pairs::Zero(n, 2);
   Eigen::Array2d active(bnorm(0) > 0 ? 1.0 : 0.0, bnorm(1) > 0 ? 1.0 : 0.0);
   if ((active == 0).all()) return Block::Zero(n, 2);
-  h.precondition(r, z, settings_.smoothing_sweeps);
-  Pairs p = z;
-  Eigen::Array2d rz = r.cwiseProduct(z).colwise().sum().transpose().array();
+  // z holds V(S r) unscaled: the preconditioned residual is S z, formed where it is used (p's update), and
+  // r.(S z) is summed by the cycle's last sweep, as each row of z is final. Each saves a pass over the vectors.
+  const double* sv = h.scale.data();
+  Eigen::Array2d rz = Eigen::Array2d::Zero();
+  h.cycle(0, RightHandSide{r.data(), sv}, z, settings_.smoothing_sweeps, rz.data());
+  Pairs p(n, 2);
+  for (Eigen::Index i = 0; i < n; ++i) p.row(i) = z.row(i) * sv[i];
   Eigen::Array2d relative(1.0, 1.0);
   std::vector<Eigen::Array2d> history;  // relative residuals, to stop a column that no longer converges
   for (int it = 0; it < settings_.max_iterations; ++it) {
@@ -599,12 +660,19 @@ AggregationMultigrid::Block AggregationMultigrid::solve(const Block& b_in, const
     }
     history.push_back(relative);
     if ((active == 0).all()) break;
-    h.precondition(r, z, settings_.smoothing_sweeps);
-    const Eigen::Array2d rz_next = r.cwiseProduct(z).colwise().sum().transpose().array();
+    Eigen::Array2d rz_next = Eigen::Array2d::Zero();
+    h.cycle(0, RightHandSide{r.data(), sv}, z, settings_.smoothing_sweeps, rz_next.data());
     Eigen::Array2d beta = Eigen::Array2d::Zero();
     for (int c = 0; c < 2; ++c)
       if (active(c) > 0 && rz(c) != 0) beta(c) = rz_next(c) / rz(c);
-    p = z + p * beta.matrix().asDiagonal();  // one pass (Eigen fuses the expression)
+    {
+      double* pv = p.data();
+      const double* zv = z.data();
+      for (Eigen::Index i = 0; i < n; ++i) {
+        pv[2 * i] = sv[i] * zv[2 * i] + beta(0) * pv[2 * i];
+        pv[2 * i + 1] = sv[i] * zv[2 * i + 1] + beta(1) * pv[2 * i + 1];
+      }
+    }
     rz = rz_next;
   }
   for (int c = 0; c < 2; ++c)
