@@ -563,9 +563,9 @@ int main(int argc, char** argv) {
               std::thread::hardware_concurrency(), cpu_model().c_str());
   // The allocator's setting changes large-mesh times by up to 2x on VMs (docs/architecture.md, "Huge pages").
   const char* tunables = std::getenv("GLIBC_TUNABLES");
-  std::printf("malloc: %s\n", tunables && std::strstr(tunables, "glibc.malloc.hugetlb=1")
-                                   ? "transparent huge pages (GLIBC_TUNABLES glibc.malloc.hugetlb=1)"
-                                   : "glibc default (4 KiB pages; the container image sets glibc.malloc.hugetlb=1)");
+  std::printf("malloc: GLIBC_TUNABLES=%s\n", tunables && *tunables ? tunables
+                                   : "(unset: glibc's defaults; the lipmap binary and the container image use "
+                                     "docs/architecture.md's \"Huge pages\" settings)");
   std::printf("median of %d run%s per row (budget %.0f s per row); times in ms; peak = max resident set of the row's "
               "own process\n", runs, runs == 1 ? "" : "s", budget_s);
   std::printf("\n%-26s %-11s %-24s %7s %7s %6s %5s %9s %9s %9s %9s %9s %8s %8s %9s %7s\n", "model", "target", "verdict",

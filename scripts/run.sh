@@ -17,8 +17,9 @@ jobs="${LIPMAP_JOBS:-2}"
 export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$PWD}"
 export LIPMAP_HOST="${LIPMAP_HOST:-127.0.0.1}"
 export LIPMAP_PORT="${LIPMAP_PORT:-8080}"
-# Large mesh arrays on transparent huge pages, as in the container image (docs/architecture.md, "Huge pages").
-export GLIBC_TUNABLES="${GLIBC_TUNABLES:-glibc.malloc.hugetlb=1}"
+# Large mesh arrays on transparent huge pages and freed memory kept for the job's next arrays, as in the container
+# image (docs/architecture.md, "Huge pages").
+export GLIBC_TUNABLES="${GLIBC_TUNABLES:-glibc.malloc.hugetlb=1:glibc.malloc.mmap_threshold=33554432:glibc.malloc.trim_threshold=1073741824}"
 polygon="${1:-tests/data/polygons/spiral_overlapping.json}"
 mesh_request="tests/data/requests/grid8_spiral.json"
 

@@ -15,7 +15,7 @@ setup_file() {
 teardown() {
   check_recorded_answers
   # servers a test started and did not stop (a failed assertion): stop them
-  for name in QUEUE DEADLINE LOAD CANCEL WAIT TTL COUNT TERM GRACE ENVS; do
+  for name in QUEUE DEADLINE LOAD CANCEL WAIT TTL COUNT TERM GRACE ENVS TUNE OWN; do
     pid_var="${name}_PID"
     if [ -n "${!pid_var:-}" ] && kill -0 "${!pid_var}" 2>/dev/null; then stop_server "$name" || true; fi
   done
@@ -311,4 +311,31 @@ slow_job() {
   ! grep -q '"event":"request","request_id".*"status":200' "$BATS_FILE_TMPDIR/ENVS.log"
   stop_server ENVS INT
   [ "$stop_status" = 0 ]
+}
+
+# The glibc tunables a process runs with, one per line, from its environment as exec'd (glibc's loader splits
+# GLIBC_TUNABLES at its colons in place, so they read as NUL-separated entries there).
+tunables_of() {
+  tr '\0' '\n' < "/proc/$1/environ" | sed 's/^GLIBC_TUNABLES=//' | tr ':' '\n' | grep '^glibc\.' || true
+}
+
+@test "the service runs with its allocator and BLAS settings, and a setting the user named is kept" {
+  # server/app/main.cpp adds what GLIBC_TUNABLES does not name and starts the binary again; read back from the
+  # running process's own environment, not from the code that sets it.
+  GLIBC_TUNABLES= start_server TUNE
+  local seen
+  seen="$(tunables_of "$TUNE_PID")"
+  grep -qx 'glibc.malloc.hugetlb=1' <<< "$seen" || { echo "tunables: $seen" >&2; return 1; }
+  grep -qx 'glibc.malloc.mmap_threshold=33554432' <<< "$seen" || { echo "tunables: $seen" >&2; return 1; }
+  grep -qx 'glibc.malloc.trim_threshold=1073741824' <<< "$seen" || { echo "tunables: $seen" >&2; return 1; }
+  tr '\0' '\n' < "/proc/$TUNE_PID/environ" | grep -qx 'OPENBLAS_NUM_THREADS=1'
+  call GET "$TUNE_URL/healthz"
+  expect 200
+  stop_server TUNE
+  GLIBC_TUNABLES=glibc.malloc.trim_threshold=4096 start_server OWN
+  seen="$(tunables_of "$OWN_PID")"
+  grep -qx 'glibc.malloc.trim_threshold=4096' <<< "$seen" || { echo "tunables: $seen" >&2; return 1; }
+  [ "$(grep -c '^glibc.malloc.trim_threshold=' <<< "$seen")" = 1 ] || { echo "tunables: $seen" >&2; return 1; }
+  grep -qx 'glibc.malloc.hugetlb=1' <<< "$seen" || { echo "tunables: $seen" >&2; return 1; }
+  stop_server OWN
 }
