@@ -12,7 +12,8 @@
 // level's matrix is kept with float values and the two right-hand sides interleaved, because at 500k unknowns
 // the cycles are bound by memory traffic (the conjugate gradients themselves run in double); for the same reason
 // the cycle's passes are fused where the order of the work allows (restriction into the residual, prolongation
-// into the backward sweep, the scaling and the conjugate gradients' r.z into the finest sweeps); the levels are
+// into the backward sweep, the right-hand side's scaling and the conjugate gradients' r.z into the finest sweeps,
+// S z into p's update); the levels are
 // built for D^-1/2 A D^-1/2 (near null vector D^1/2 1), whose entries float holds whatever A's range.
 //
 // Preconditions (documented, not all checked): A is square, symmetric with its full pattern stored (both

@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <string>
+#include <utility>
 #include <iostream>
 
 #include "server/app/cli.h"
@@ -28,6 +29,7 @@ namespace {
 //   threshold as blocks are freed and give back any free top above twice it). A 1M-triangle job frees and
 //   allocates its large arrays in turn; given back each time, every new one was fresh pages the kernel zeroed
 //   (135 ms of a 2.1 s map). The worker pool gives the memory back once it is idle (server/http/worker_pool.cpp).
+//   A value set through glibc's older MALLOC_MMAP_THRESHOLD_ / MALLOC_TRIM_THRESHOLD_ is kept as well.
 void start_with_settings(char** argv) {
   // Once only: a process the kernel runs in secure mode (setuid, file capabilities) has GLIBC_TUNABLES
   // cleaned, so the settings could never be seen as made.
@@ -40,10 +42,15 @@ void start_with_settings(char** argv) {
   if (std::getenv("OPENBLAS_NUM_THREADS") == nullptr) changed |= setenv("OPENBLAS_NUM_THREADS", "1", 1) == 0;
   const char* tunables = std::getenv("GLIBC_TUNABLES");
   std::string all = tunables ? tunables : "";
-  for (const char* setting : {"glibc.malloc.hugetlb=1", "glibc.malloc.mmap_threshold=33554432",
-                              "glibc.malloc.trim_threshold=1073741824"}) {
-    const std::string name(setting, std::strchr(setting, '='));
-    if (all.find(name) != std::string::npos) continue;  // the user's value stands
+  // Each with the older variable that sets the same (GLIBC_TUNABLES would take precedence over it).
+  const std::pair<const char*, const char*> settings[] = {
+      {"glibc.malloc.hugetlb=1", nullptr},
+      {"glibc.malloc.mmap_threshold=33554432", "MALLOC_MMAP_THRESHOLD_"},
+      {"glibc.malloc.trim_threshold=1073741824", "MALLOC_TRIM_THRESHOLD_"}};
+  for (const auto& [setting, older] : settings) {
+    const std::string name(setting, std::strchr(setting, '=') + 1);  // "glibc.malloc.x="
+    const bool named = all.rfind(name, 0) == 0 || all.find(":" + name) != std::string::npos;
+    if (named || (older && std::getenv(older) != nullptr)) continue;  // the user's value stands
     all += (all.empty() || all.back() == ':' ? "" : ":") + std::string(setting);
   }
   if (all != (tunables ? tunables : "")) changed |= setenv("GLIBC_TUNABLES", all.c_str(), 1) == 0;

@@ -9,6 +9,7 @@ namespace lipmap::server {
 
 namespace {
 constexpr double kTrimAfterSeconds = 0.5;
+constexpr std::chrono::seconds kTrimDelay{1};
 }  // namespace
 
 WorkerPool::WorkerPool(std::size_t workers, std::size_t queue_capacity) : capacity_(queue_capacity) {
@@ -44,12 +45,30 @@ bool WorkerPool::full() const {
   return !closed_ && full_locked();
 }
 
+// malloc keeps what a job freed for the next one (the lipmap binary's glibc.malloc.trim_threshold,
+// server/app/main.cpp). After a long task (the large jobs) an idle worker gives it back with malloc_trim, once the
+// pool has stayed idle for kTrimDelay: by then an answer's memory freed on the HTTP thread after sending is free
+// too, and a trim never holds up work that arrives at once. Not after short tasks only: a trim walks every free
+// block, and at hundreds of small jobs a second that adds up.
 void WorkerPool::run() {
   for (;;) {
     Task task;
     {
       std::unique_lock<std::mutex> lock(mutex_);
-      work_cv_.wait(lock, [this] { return closed_ || !queue_.empty(); });
+      const auto ready = [this] { return closed_ || !queue_.empty(); };
+      while (!ready()) {
+        if (!(trim_due_ && running_ == 0)) {
+          work_cv_.wait(lock);
+          continue;
+        }
+        if (work_cv_.wait_for(lock, kTrimDelay, ready)) break;
+        if (trim_due_ && running_ == 0) {  // still idle: one of the idle workers trims
+          trim_due_ = false;
+          lock.unlock();
+          malloc_trim(0);
+          lock.lock();
+        }
+      }
       if (queue_.empty()) return;  // closed and drained
       task = std::move(queue_.front().second);
       queue_.pop_front();
@@ -61,19 +80,15 @@ void WorkerPool::run() {
     } catch (...) {
       // Tasks catch their own errors; this only keeps a worker alive if one does not.
     }
+    task = nullptr;  // what the task holds (a parsed request) is freed before the pool counts it done
     const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
-    bool idle = false;
     {
       std::lock_guard<std::mutex> lock(mutex_);
       --running_;
       mean_seconds_ = mean_seconds_ == 0 ? seconds : 0.8 * mean_seconds_ + 0.2 * seconds;
-      idle = running_ == 0 && queue_.empty();
-      if (idle) idle_cv_.notify_all();
+      if (seconds >= kTrimAfterSeconds) trim_due_ = true;
+      if (running_ == 0 && queue_.empty()) idle_cv_.notify_all();
     }
-    // malloc keeps what a job freed for the next one (the lipmap binary's glibc.malloc.trim_threshold,
-    // server/app/main.cpp); once nothing runs, a long job's memory (the large ones) goes back to the system.
-    // Not after short jobs: a trim walks every free block, and at hundreds of small jobs a second that adds up.
-    if (idle && seconds >= kTrimAfterSeconds) malloc_trim(0);
   }
 }
 

@@ -66,6 +66,7 @@ private:
   std::size_t running_ = 0;
   bool closed_ = false;
   double mean_seconds_ = 0;
+  bool trim_due_ = false;  // a long task ended since the last malloc_trim (worker_pool.cpp)
   std::vector<std::thread> threads_;
 };
 

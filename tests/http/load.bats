@@ -322,6 +322,7 @@ tunables_of() {
 @test "the service runs with its allocator and BLAS settings, and a setting the user named is kept" {
   # server/app/main.cpp adds what GLIBC_TUNABLES does not name and starts the binary again; read back from the
   # running process's own environment, not from the code that sets it.
+  unset OPENBLAS_NUM_THREADS MALLOC_MMAP_THRESHOLD_ MALLOC_TRIM_THRESHOLD_
   GLIBC_TUNABLES= start_server TUNE
   local seen
   seen="$(tunables_of "$TUNE_PID")"
@@ -332,8 +333,10 @@ tunables_of() {
   call GET "$TUNE_URL/healthz"
   expect 200
   stop_server TUNE
-  GLIBC_TUNABLES=glibc.malloc.trim_threshold=4096 start_server OWN
+  # named in GLIBC_TUNABLES, or by glibc's older variable (which GLIBC_TUNABLES would override)
+  MALLOC_MMAP_THRESHOLD_=65536 GLIBC_TUNABLES=glibc.malloc.trim_threshold=4096 start_server OWN
   seen="$(tunables_of "$OWN_PID")"
+  ! grep -q '^glibc.malloc.mmap_threshold=' <<< "$seen" || { echo "tunables: $seen" >&2; return 1; }
   grep -qx 'glibc.malloc.trim_threshold=4096' <<< "$seen" || { echo "tunables: $seen" >&2; return 1; }
   [ "$(grep -c '^glibc.malloc.trim_threshold=' <<< "$seen")" = 1 ] || { echo "tunables: $seen" >&2; return 1; }
   grep -qx 'glibc.malloc.hugetlb=1' <<< "$seen" || { echo "tunables: $seen" >&2; return 1; }
