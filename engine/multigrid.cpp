@@ -35,18 +35,24 @@ struct Compact {
     if (m.outerSize() == 0) outer.assign(1, 0);
   }
   int columns() const { return static_cast<int>(outer.size()) - 1; }
+  // s_c = sum_i M_ij in_i for column j, for both interleaved right-hand sides c.
+  void column_times(int j, const double* in, double& s0, double& s1) const {
+    s0 = 0;
+    s1 = 0;
+    for (int k = outer[static_cast<std::size_t>(j)]; k < outer[static_cast<std::size_t>(j) + 1]; ++k) {
+      const double a = value[static_cast<std::size_t>(k)];
+      const std::size_t i = 2 * static_cast<std::size_t>(inner[static_cast<std::size_t>(k)]);
+      s0 += a * in[i];
+      s1 += a * in[i + 1];
+    }
+  }
   // out_j (+)= sum_i M_ij in_i for each column j (a gather: M^T in), for both interleaved right-hand sides;
   // with dot (M square), also dot[c] += sum_j in_j out_j in the same pass (the conjugate gradients' p.Ap).
   void gather(const double* in, double* out, bool add, double* dot = nullptr) const {
     const int cols = columns();
     for (int j = 0; j < cols; ++j) {
-      double s0 = 0, s1 = 0;
-      for (int k = outer[static_cast<std::size_t>(j)]; k < outer[static_cast<std::size_t>(j) + 1]; ++k) {
-        const double a = value[static_cast<std::size_t>(k)];
-        const std::size_t i = 2 * static_cast<std::size_t>(inner[static_cast<std::size_t>(k)]);
-        s0 += a * in[i];
-        s1 += a * in[i + 1];
-      }
+      double s0, s1;
+      column_times(j, in, s0, s1);
       if (add) {
         out[2 * j] += s0;
         out[2 * j + 1] += s1;
@@ -425,14 +431,8 @@ struct AggregationMultigrid::Hierarchy {
         const int first = outer[i] < outer[i + 1] ? std::min(i, inner[outer[i]]) : i;
         while (prolonged > first) {
           --prolonged;
-          double s0 = 0, s1 = 0;
-          for (int k = l.R.outer[static_cast<std::size_t>(prolonged)];
-               k < l.R.outer[static_cast<std::size_t>(prolonged) + 1]; ++k) {
-            const double a = l.R.value[static_cast<std::size_t>(k)];
-            const std::size_t c = 2 * static_cast<std::size_t>(l.R.inner[static_cast<std::size_t>(k)]);
-            s0 += a * coarse[c];
-            s1 += a * coarse[c + 1];
-          }
+          double s0, s1;
+          l.R.column_times(prolonged, coarse, s0, s1);
           xv[2 * prolonged] += s0;
           xv[2 * prolonged + 1] += s1;
         }
@@ -482,11 +482,8 @@ struct AggregationMultigrid::Hierarchy {
           r1 -= value[q] * zv[2 * inner[q] + 1];
         }
       } else {
-        double s0 = 0, s1 = 0;
-        for (int q = outer[i]; q < outer[i + 1]; ++q) {
-          s0 += value[q] * zv[2 * inner[q]];
-          s1 += value[q] * zv[2 * inner[q] + 1];
-        }
+        double s0, s1;
+        l.A.column_times(i, zv, s0, s1);  // (A z)_i: A is symmetric
         r0 = b.at(i, 0) - s0;
         r1 = b.at(i, 1) - s1;
       }
@@ -619,8 +616,16 @@ AggregationMultigrid::Block AggregationMultigrid::solve(const Block& b_in, const
   const double* sv = h.scale.data();
   Eigen::Array2d rz = Eigen::Array2d::Zero();
   h.cycle(0, RightHandSide{r.data(), sv}, z, settings_.smoothing_sweeps, rz.data());
-  Pairs p(n, 2);
-  for (Eigen::Index i = 0; i < n; ++i) p.row(i) = z.row(i) * sv[i];
+  Pairs p = Pairs::Zero(n, 2);
+  const auto update_direction = [&](const Eigen::Array2d& beta) {  // p = S z + beta p, one pass
+    double* pv = p.data();
+    const double* zv = z.data();
+    for (Eigen::Index i = 0; i < n; ++i) {
+      pv[2 * i] = sv[i] * zv[2 * i] + beta(0) * pv[2 * i];
+      pv[2 * i + 1] = sv[i] * zv[2 * i + 1] + beta(1) * pv[2 * i + 1];
+    }
+  };
+  update_direction(Eigen::Array2d::Zero());
   Eigen::Array2d relative(1.0, 1.0);
   std::vector<Eigen::Array2d> history;  // relative residuals, to stop a column that no longer converges
   for (int it = 0; it < settings_.max_iterations; ++it) {
@@ -665,14 +670,7 @@ AggregationMultigrid::Block AggregationMultigrid::solve(const Block& b_in, const
     Eigen::Array2d beta = Eigen::Array2d::Zero();
     for (int c = 0; c < 2; ++c)
       if (active(c) > 0 && rz(c) != 0) beta(c) = rz_next(c) / rz(c);
-    {
-      double* pv = p.data();
-      const double* zv = z.data();
-      for (Eigen::Index i = 0; i < n; ++i) {
-        pv[2 * i] = sv[i] * zv[2 * i] + beta(0) * pv[2 * i];
-        pv[2 * i + 1] = sv[i] * zv[2 * i + 1] + beta(1) * pv[2 * i + 1];
-      }
-    }
+    update_direction(beta);
     rz = rz_next;
   }
   for (int c = 0; c < 2; ++c)

@@ -17,9 +17,8 @@ jobs="${LIPMAP_JOBS:-2}"
 export CCACHE_BASEDIR="${CCACHE_BASEDIR:-$PWD}"
 export LIPMAP_HOST="${LIPMAP_HOST:-127.0.0.1}"
 export LIPMAP_PORT="${LIPMAP_PORT:-8080}"
-# Large mesh arrays on transparent huge pages and freed memory kept for the job's next arrays, as in the container
-# image (docs/architecture.md, "Huge pages").
-export GLIBC_TUNABLES="${GLIBC_TUNABLES:-glibc.malloc.hugetlb=1:glibc.malloc.mmap_threshold=33554432:glibc.malloc.trim_threshold=1073741824}"
+# The lipmap binary sets its own malloc settings (huge pages, fixed thresholds: server/app/main.cpp), so
+# GLIBC_TUNABLES is not set here for the whole script (apt and the compilers).
 polygon="${1:-tests/data/polygons/spiral_overlapping.json}"
 mesh_request="tests/data/requests/grid8_spiral.json"
 
